@@ -1,0 +1,382 @@
+//! Projector-camera calibration: the JSON file of `conventions.md`, its validation,
+//! the default demo rig, and the rays and light planes that triangulation needs.
+//!
+//! Conventions (OpenCV): pixel (u, v) with the top-left pixel centre at (0, 0);
+//! normalized coordinates x = (u - cx) / fx; camera frame x right, y down, z forward;
+//! a point `X_c` in camera coordinates is `X_p = R X_c + t` in projector coordinates
+//! (`proj_from_cam`). Lengths are millimetres. Distortion is OpenCV's
+//! `[k1, k2, p1, p2, k3]`, applied to normalized coordinates.
+
+use crate::error::{Error, Result};
+use glam::{DMat3, DVec2, DVec3};
+use serde::{Deserialize, Serialize};
+
+/// Intrinsics of one device (camera, or projector seen as an inverse camera).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Intrinsics {
+    /// Image width in pixels.
+    pub width: u32,
+    /// Image height in pixels.
+    pub height: u32,
+    /// Focal length along u, pixels.
+    pub fx: f64,
+    /// Focal length along v, pixels.
+    pub fy: f64,
+    /// Principal point u, pixels.
+    pub cx: f64,
+    /// Principal point v, pixels.
+    pub cy: f64,
+    /// OpenCV distortion `[k1, k2, p1, p2, k3]`; zeros when omitted.
+    #[serde(default)]
+    pub dist: [f64; 5],
+}
+
+/// A calibrated projector-camera pair.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Calibration {
+    /// Always `"mm"`.
+    pub units: String,
+    /// The camera.
+    pub camera: Intrinsics,
+    /// The projector.
+    pub projector: Intrinsics,
+    /// R of `X_p = R X_c + t`, row-major.
+    pub rotation: [f64; 9],
+    /// t of `X_p = R X_c + t`, mm.
+    pub translation: [f64; 3],
+}
+
+/// Largest deviation of `R Rᵀ` from identity accepted as orthonormal. Calibration
+/// tools print 6 to 8 significant digits, which keeps real files far below this.
+const ORTHONORMAL_TOLERANCE: f64 = 1e-4;
+
+/// Iterations of the fixed-point undistortion; OpenCV's default is 5, more costs
+/// little and brings strong distortion below 1e-9 in normalized units.
+const UNDISTORT_ITERATIONS: usize = 20;
+
+impl Intrinsics {
+    /// Normalized coordinates of a pixel, lens distortion undone.
+    pub fn undistort(&self, u: f64, v: f64) -> DVec2 {
+        let xd = DVec2::new((u - self.cx) / self.fx, (v - self.cy) / self.fy);
+        if self.dist == [0.0; 5] {
+            return xd;
+        }
+        let mut x = xd;
+        for _ in 0..UNDISTORT_ITERATIONS {
+            let [k1, k2, p1, p2, k3] = self.dist;
+            let r2 = x.length_squared();
+            let radial = 1.0 + r2 * (k1 + r2 * (k2 + r2 * k3));
+            let dx = 2.0 * p1 * x.x * x.y + p2 * (r2 + 2.0 * x.x * x.x);
+            let dy = p1 * (r2 + 2.0 * x.y * x.y) + 2.0 * p2 * x.x * x.y;
+            x = DVec2::new((xd.x - dx) / radial, (xd.y - dy) / radial);
+        }
+        x
+    }
+
+    /// Distorted normalized coordinates of undistorted ones (OpenCV's forward model).
+    pub fn distort(&self, x: DVec2) -> DVec2 {
+        let [k1, k2, p1, p2, k3] = self.dist;
+        let r2 = x.length_squared();
+        let radial = 1.0 + r2 * (k1 + r2 * (k2 + r2 * k3));
+        DVec2::new(
+            x.x * radial + 2.0 * p1 * x.x * x.y + p2 * (r2 + 2.0 * x.x * x.x),
+            x.y * radial + p1 * (r2 + 2.0 * x.y * x.y) + 2.0 * p2 * x.x * x.y,
+        )
+    }
+
+    /// Pixel of a point in this device's frame; `None` behind the device.
+    pub fn project(&self, p: DVec3) -> Option<DVec2> {
+        if p.z <= 0.0 {
+            return None;
+        }
+        let xd = self.distort(DVec2::new(p.x / p.z, p.y / p.z));
+        Some(DVec2::new(self.fx * xd.x + self.cx, self.fy * xd.y + self.cy))
+    }
+
+    /// Direction (z = 1) of the ray through pixel (u, v), in this device's frame.
+    pub fn ray(&self, u: f64, v: f64) -> DVec3 {
+        self.undistort(u, v).extend(1.0)
+    }
+
+    fn validate(&self, name: &str) -> Result<()> {
+        let err = |field: &str, problem: String| Error::Calib {
+            field: format!("{name}.{field}"),
+            problem,
+        };
+        if self.width == 0 || self.height == 0 {
+            return Err(err("width", format!("size {}x{} is empty", self.width, self.height)));
+        }
+        for (field, value) in [("fx", self.fx), ("fy", self.fy)] {
+            if !value.is_finite() || value <= 0.0 {
+                return Err(err(field, format!("must be a positive focal length, got {value}")));
+            }
+        }
+        for (field, value) in [("cx", self.cx), ("cy", self.cy)] {
+            if !value.is_finite() {
+                return Err(err(field, format!("must be finite, got {value}")));
+            }
+        }
+        if let Some(k) = self.dist.iter().position(|d| !d.is_finite()) {
+            return Err(err(&format!("dist[{k}]"), "must be finite".into()));
+        }
+        Ok(())
+    }
+}
+
+impl Calibration {
+    /// Parse and validate a calibration JSON. Errors name the offending field.
+    pub fn from_json(text: &str) -> Result<Self> {
+        let de = &mut serde_json::Deserializer::from_str(text);
+        let calib: Calibration = serde_path_to_error::deserialize(de).map_err(|e| {
+            let path = e.path().to_string();
+            Error::Calib {
+                field: if path == "." { "(file)".into() } else { path },
+                problem: e.into_inner().to_string(),
+            }
+        })?;
+        calib.validate()?;
+        Ok(calib)
+    }
+
+    /// Serialize as pretty JSON in the schema of `conventions.md`.
+    pub fn to_json(&self) -> String {
+        // Serializing plain numbers and strings cannot fail.
+        serde_json::to_string_pretty(self).unwrap_or_default()
+    }
+
+    /// Check every field for finite, possible values.
+    pub fn validate(&self) -> Result<()> {
+        if self.units != "mm" {
+            return Err(Error::Calib {
+                field: "units".into(),
+                problem: format!("must be \"mm\", got {:?}", self.units),
+            });
+        }
+        self.camera.validate("camera")?;
+        self.projector.validate("projector")?;
+        if let Some(k) = self.rotation.iter().position(|r| !r.is_finite()) {
+            return Err(Error::Calib {
+                field: format!("rotation[{k}]"),
+                problem: "must be finite".into(),
+            });
+        }
+        let r = self.proj_from_cam_rotation();
+        let dev = (r * r.transpose() - DMat3::IDENTITY).to_cols_array().iter().fold(0f64, |m, x| m.max(x.abs()));
+        if dev > ORTHONORMAL_TOLERANCE || (r.determinant() - 1.0).abs() > ORTHONORMAL_TOLERANCE {
+            return Err(Error::Calib {
+                field: "rotation".into(),
+                problem: format!(
+                    "is not a rotation (R Rᵀ deviates from I by {dev:.2e}, det R = {:.6})",
+                    r.determinant()
+                ),
+            });
+        }
+        if let Some(k) = self.translation.iter().position(|r| !r.is_finite()) {
+            return Err(Error::Calib {
+                field: format!("translation[{k}]"),
+                problem: "must be finite".into(),
+            });
+        }
+        if self.baseline_mm() < 1e-6 {
+            return Err(Error::Calib {
+                field: "translation".into(),
+                problem: "is zero: without a baseline nothing can be triangulated".into(),
+            });
+        }
+        Ok(())
+    }
+
+    /// R of `X_p = R X_c + t`.
+    pub fn proj_from_cam_rotation(&self) -> DMat3 {
+        // glam is column-major; the file is row-major.
+        DMat3::from_cols_array(&self.rotation).transpose()
+    }
+
+    /// t of `X_p = R X_c + t`, mm.
+    pub fn proj_from_cam_translation(&self) -> DVec3 {
+        DVec3::from_array(self.translation)
+    }
+
+    /// A camera-frame point in projector coordinates.
+    pub fn cam_to_proj(&self, p_cam: DVec3) -> DVec3 {
+        self.proj_from_cam_rotation() * p_cam + self.proj_from_cam_translation()
+    }
+
+    /// A projector-frame point in camera coordinates.
+    pub fn proj_to_cam(&self, p_proj: DVec3) -> DVec3 {
+        self.proj_from_cam_rotation().transpose() * (p_proj - self.proj_from_cam_translation())
+    }
+
+    /// The projector's centre of projection in camera coordinates, mm.
+    pub fn projector_center_cam(&self) -> DVec3 {
+        self.proj_to_cam(DVec3::ZERO)
+    }
+
+    /// Distance between the two centres of projection, mm.
+    pub fn baseline_mm(&self) -> f64 {
+        self.proj_from_cam_translation().length()
+    }
+
+    /// The default demo rig: a VGA camera and an XGA projector whose centre sits
+    /// 200 mm from the camera's along the image diagonal (right and down, so vertical,
+    /// horizontal and 60-degree stripe families all triangulate), both aimed at a
+    /// point 750 mm in front of the camera. No lens distortion.
+    pub fn demo() -> Self {
+        let camera = Intrinsics {
+            width: 640,
+            height: 480,
+            fx: 760.0,
+            fy: 760.0,
+            cx: 319.5,
+            cy: 239.5,
+            dist: [0.0; 5],
+        };
+        let projector = Intrinsics {
+            width: 1024,
+            height: 768,
+            fx: 1150.0,
+            fy: 1150.0,
+            cx: 511.5,
+            cy: 383.5,
+            dist: [0.0; 5],
+        };
+        let half = 200.0 / std::f64::consts::SQRT_2;
+        Self::aimed(camera, projector, DVec3::new(half, half, 0.0), DVec3::new(0.0, 0.0, 750.0))
+    }
+
+    /// The demo rig with moderate lens distortion on both devices, for tests that the
+    /// distortion model is applied everywhere.
+    pub fn demo_distorted() -> Self {
+        let mut c = Self::demo();
+        c.camera.dist = [-0.12, 0.05, 0.001, -0.0008, 0.0];
+        c.projector.dist = [0.06, -0.02, -0.0005, 0.0004, 0.0];
+        c
+    }
+
+    /// A rig with the projector's centre at `projector_center` (camera frame, mm),
+    /// its optical axis through `target` and its x axis as close to the camera's as
+    /// the aim allows.
+    pub fn aimed(camera: Intrinsics, projector: Intrinsics, projector_center: DVec3, target: DVec3) -> Self {
+        let z = (target - projector_center).normalize();
+        let x = (DVec3::X - z * z.dot(DVec3::X)).normalize();
+        let y = z.cross(x);
+        // Rows of R are the projector's axes in camera coordinates.
+        let r = DMat3::from_cols(x, y, z).transpose();
+        let t = -(r * projector_center);
+        Calibration {
+            units: "mm".into(),
+            camera,
+            projector,
+            rotation: r.transpose().to_cols_array(),
+            translation: t.to_array(),
+        }
+    }
+
+    /// Depth along the camera ray of pixel (u, v) where it meets the projector's
+    /// light surface `coord(projector pixel) = target`, for a `coord` that is an affine
+    /// function `a·u_p + b·v_p + c` of the projector pixel (a stripe family's
+    /// coordinate). Lens distortion of both devices is honoured: the first guess is the
+    /// exact answer for the undistorted projector and Newton steps on the true
+    /// projection refine it. `None` when the ray is (nearly) parallel to the surface or
+    /// meets it behind either device.
+    pub fn depth_on_stripe(&self, u: f64, v: f64, a: f64, b: f64, c: f64, target: f64) -> Option<f64> {
+        let ray = self.camera.ray(u, v);
+        let p = &self.projector;
+        // Undistorted light plane through the projector centre: in normalized
+        // projector coordinates a(fx x + cx) + b(fy y + cy) + c = target.
+        let n_proj = DVec3::new(a * p.fx, b * p.fy, a * p.cx + b * p.cy + c - target);
+        let r = self.proj_from_cam_rotation();
+        let t = self.proj_from_cam_translation();
+        let denom = (r.transpose() * n_proj).dot(ray);
+        if denom.abs() < 1e-12 * n_proj.length() {
+            return None;
+        }
+        let mut z = -n_proj.dot(t) / denom;
+        if p.dist != [0.0; 5] {
+            let f = |z: f64| -> Option<f64> {
+                let px = p.project(r * (ray * z) + t)?;
+                Some(a * px.x + b * px.y + c - target)
+            };
+            for _ in 0..8 {
+                let h = 1e-3 * z.abs().max(1.0);
+                let f0 = f(z)?;
+                let slope = (f(z + h)? - f0) / h;
+                if slope.abs() < 1e-12 {
+                    return None;
+                }
+                let step = f0 / slope;
+                z -= step;
+                if step.abs() < 1e-9 {
+                    break;
+                }
+            }
+        }
+        let in_front = z > 0.0 && (r * (ray * z) + t).z > 0.0;
+        (in_front && z.is_finite()).then_some(z)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn demo_rig_round_trips_and_is_valid() {
+        let c = Calibration::demo();
+        c.validate().unwrap();
+        let back = Calibration::from_json(&c.to_json()).unwrap();
+        assert_eq!(back, c);
+        assert!((c.baseline_mm() - 200.0).abs() < 1e-9);
+        // The projector's optical axis passes through the target point.
+        let target_p = c.cam_to_proj(DVec3::new(0.0, 0.0, 750.0));
+        assert!(target_p.x.abs() < 1e-9 && target_p.y.abs() < 1e-9);
+    }
+
+    #[test]
+    fn undistort_inverts_distort() {
+        let c = Calibration::demo_distorted();
+        for &(u, v) in &[(0.0, 0.0), (639.0, 479.0), (320.0, 17.0), (5.0, 400.0)] {
+            let x = c.camera.undistort(u, v);
+            let xd = c.camera.distort(x);
+            let back = DVec2::new(xd.x * c.camera.fx + c.camera.cx, xd.y * c.camera.fy + c.camera.cy);
+            assert!((back - DVec2::new(u, v)).length() < 1e-7, "{u},{v} -> {back}");
+        }
+    }
+
+    #[test]
+    fn stripe_depth_recovers_a_known_point() {
+        for calib in [Calibration::demo(), Calibration::demo_distorted()] {
+            let p_cam = DVec3::new(40.0, -25.0, 700.0);
+            let pix = calib.camera.project(p_cam).unwrap();
+            let proj = calib.projector.project(calib.cam_to_proj(p_cam)).unwrap();
+            // A 60-degree family: coord = cos·u + sin·v.
+            let (s, co) = (60f64.to_radians().sin(), 60f64.to_radians().cos());
+            let target = co * proj.x + s * proj.y;
+            let z = calib.depth_on_stripe(pix.x, pix.y, co, s, 0.0, target).unwrap();
+            assert!((z - 700.0).abs() < 1e-6, "{z}");
+        }
+    }
+
+    #[test]
+    fn broken_files_name_the_field() {
+        let good = Calibration::demo().to_json();
+        let cases = [
+            (good.replace("\"fx\": 760.0", "\"fx\": -1.0"), "camera.fx"),
+            (good.replace("\"fx\": 760.0", "\"fx\": \"a\""), "camera.fx"),
+            (good.replace("\"units\": \"mm\"", "\"units\": \"in\""), "units"),
+            (good.replace("\"width\": 640", "\"width\": 0"), "camera.width"),
+            ("{".to_string(), ""),
+        ];
+        for (text, field) in cases {
+            let err = Calibration::from_json(&text).unwrap_err().to_string();
+            assert!(err.starts_with("calibration: ") && err.contains(field), "{err}");
+        }
+        let mut c = Calibration::demo();
+        c.rotation[0] = 2.0;
+        assert!(c.validate().unwrap_err().to_string().contains("rotation"));
+        let no_dist = good.replace("\"dist\": [\n      0.0,\n      0.0,\n      0.0,\n      0.0,\n      0.0\n    ]", "\"dist\": [0,0,0,0,0]");
+        assert!(Calibration::from_json(&no_dist).is_ok());
+    }
+}

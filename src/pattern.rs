@@ -1,0 +1,430 @@
+//! Colour-stripe patterns with spatially windowed uniqueness, in one, two or three
+//! directions, and the JSON spec that describes one completely.
+//!
+//! # Design
+//!
+//! **Palette.** Eight colours, one per corner of the RGB cube: each channel of a stripe
+//! is either *high* (1.0) or *low* (`low`, never 0), in linear light. The decoder never
+//! needs absolute colour: log-gradient restoration (paper eq. 6) loses each channel's
+//! mean level, so what survives, robustly and independently of the surface colour, is
+//! the *transition* at a stripe boundary: per channel up, down or unchanged. A transition
+//! code is therefore a vector in {-1, 0, +1}³ with at least one non-zero entry; from any
+//! colour exactly 7 transitions are possible.
+//!
+//! **Sequence.** The stripes follow a sequence in which adjacent colours always differ
+//! and every window of `window` consecutive stripes is unique *by its transitions*
+//! (which implies unique by colours). This is a de Bruijn-style construction over
+//! transitions rather than the paper's permutation pattern [12]: with 8 colours a
+//! 3-stripe window (two transitions) already allows 290 distinct windows, enough for
+//! 1024 / 4 stripes, so a stripe is identified from itself and its two neighbours:
+//! half the window of the paper's 7-stripe permutation pattern, which is what matters
+//! near occluding boundaries. The sequence is built by depth-first search with
+//! backtracking, trying first the transitions that change the most channels (they are
+//! the easiest to see through crosstalk and noise). When a pattern needs more stripes
+//! than a window allows, the window grows.
+//!
+//! **Directions.** A family of stripes has a normal angle θ in projector pixel
+//! coordinates (v down): its *coordinate* is
+//! `s = (u - (W-1)/2) cos θ + (v - (H-1)/2) sin θ` and stripe `j` covers
+//! `origin + j·w <= s < origin + (j+1)·w`. One direction is θ = 0 (vertical stripes);
+//! two are 0 and 90 degrees; three are 60 degrees apart at -15, 45 and 105 degrees, so
+//! that a diagonal baseline (the demo rig's) is at most 60 degrees from every normal and
+//! each family triangulates with at least half the baseline.
+//!
+//! **Combination.** The families are multiplied per channel in linear light:
+//! `L = L1 ⊙ L2 (⊙ L3)`. In the log domain this is a sum, `ln L = ln L1 + ln L2`, so a
+//! derivative across family 1 sees family 1's edges at full strength and family 2's
+//! only through the cosine of the angle between the normals (0 for perpendicular
+//! families, 0.5 for 60 degrees; the restoration filter weights by the cosine squared,
+//! 0.25). Because `low > 0`, no channel is ever driven to zero by the product (the
+//! darkest cell is `low^N`), so every family's transitions stay visible in every cell.
+//! `low` grows with the number of families (0.25, 0.35, 0.45) to keep `low^N` above the
+//! projector's black level.
+//!
+//! **Pixels.** The pattern image stores `255 · L^(1/encoding_gamma)` so that a projector
+//! with that gamma emits `L`. Stripe edges are antialiased by 4x4 supersampling of each
+//! family before the product (which keeps the product separable).
+
+use crate::error::{Error, Result};
+use crate::raster::{Image, Rgb};
+use serde::{Deserialize, Serialize};
+
+/// The `format` field of every spec file.
+pub const SPEC_FORMAT: &str = "stripelight-pattern";
+/// The spec version this crate reads and writes.
+pub const SPEC_VERSION: u32 = 1;
+
+/// Default stripe width in projector pixels: on the demo rig a stripe spans about 6.5
+/// camera pixels, enough for a 3x3 Sobel on rotated images and for 4:2:0 webcam chroma
+/// (about 3 chroma samples per stripe).
+pub const DEFAULT_STRIPE_WIDTH: f64 = 10.0;
+
+/// Supersampling per axis when rendering stripe edges.
+const SUPERSAMPLE: usize = 4;
+
+/// One stripe family: a direction, a width and the stripes that cover the image.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Family {
+    /// Angle of the stripes' normal in projector pixels, degrees (0 = vertical stripes).
+    pub angle_deg: f64,
+    /// Stripe width along the normal, projector pixels.
+    pub stripe_width: f64,
+    /// Coordinate `s` where stripe 0 begins.
+    pub origin: f64,
+    /// Number of stripes used (a prefix of the sequence).
+    pub count: usize,
+}
+
+/// A complete description of a pattern: a decoder needs nothing else.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PatternSpec {
+    /// Always [`SPEC_FORMAT`].
+    pub format: String,
+    /// Always [`SPEC_VERSION`].
+    pub version: u32,
+    /// Projector width in pixels.
+    pub width: u32,
+    /// Projector height in pixels.
+    pub height: u32,
+    /// Pixel value = 255 · linear^(1 / encoding_gamma).
+    pub encoding_gamma: f64,
+    /// Stripe colours, linear RGB in (0, 1].
+    pub palette: Vec<[f64; 3]>,
+    /// Palette index of each stripe; shared by all families.
+    pub sequence: Vec<u8>,
+    /// Every window of this many consecutive stripes is unique by its transitions.
+    pub window: usize,
+    /// The stripe families, multiplied into one image.
+    pub families: Vec<Family>,
+}
+
+/// A transition code: per channel -1 (down), 0 (unchanged) or +1 (up).
+pub type Transition = [i8; 3];
+
+/// Log-ratio below which a channel counts as unchanged between two palette colours.
+const SAME_LEVEL_LOG: f64 = 0.1;
+
+/// The transition from palette colour `a` to `b`.
+pub fn transition(a: [f64; 3], b: [f64; 3]) -> Transition {
+    let mut t = [0i8; 3];
+    for c in 0..3 {
+        let d = (b[c] / a[c]).ln();
+        t[c] = if d > SAME_LEVEL_LOG {
+            1
+        } else if d < -SAME_LEVEL_LOG {
+            -1
+        } else {
+            0
+        };
+    }
+    t
+}
+
+/// Normal angles of the stripe families for a pattern of `directions` directions.
+pub fn family_angles(directions: usize) -> Result<&'static [f64]> {
+    match directions {
+        1 => Ok(&[0.0]),
+        2 => Ok(&[0.0, 90.0]),
+        3 => Ok(&[-15.0, 45.0, 105.0]),
+        n => Err(Error::Invalid(format!("directions must be 1, 2 or 3, got {n}"))),
+    }
+}
+
+/// The eight-colour palette with the given low level.
+pub fn binary_palette(low: f64) -> Vec<[f64; 3]> {
+    (0..8u8)
+        .map(|c| {
+            let level = |bit: u8| if c >> bit & 1 == 1 { 1.0 } else { low };
+            [level(2), level(1), level(0)]
+        })
+        .collect()
+}
+
+/// A sequence of `len` colours from a palette of 8 binary colours in which adjacent
+/// colours differ and every window of `window` colours is unique by its transitions.
+/// `None` when no such sequence exists within the search budget.
+pub fn windowed_sequence(len: usize, window: usize) -> Option<Vec<u8>> {
+    let palette = binary_palette(0.5);
+    let code = |a: u8, b: u8| -> u32 {
+        let t = transition(palette[a as usize], palette[b as usize]);
+        t.iter().fold(0, |acc, &x| acc * 3 + (x + 1) as u32)
+    };
+    // Candidate next colours from each colour, most channels changed first, ties
+    // broken by a rotation that spreads colours evenly.
+    let order: Vec<Vec<u8>> = (0..8u8)
+        .map(|c| {
+            let mut next: Vec<u8> = (0..8u8).filter(|&n| n != c).collect();
+            next.sort_by_key(|&n| (std::cmp::Reverse((c ^ n).count_ones()), (n + 8 - c) % 8));
+            next
+        })
+        .collect();
+    let key = |seq: &[u8]| -> u64 {
+        seq.windows(2).fold(0u64, |acc, w| acc * 27 + code(w[0], w[1]) as u64)
+    };
+    let mut seq = vec![0u8];
+    let mut choice = vec![0usize];
+    let mut used = std::collections::HashSet::new();
+    let mut budget = 2_000_000usize;
+    while seq.len() < len {
+        budget = budget.checked_sub(1)?;
+        let last = *seq.last()? as usize;
+        let k = choice.last_mut()?;
+        if *k >= order[last].len() {
+            // Dead end: step back.
+            choice.pop();
+            let n = seq.len();
+            if n >= window {
+                used.remove(&key(&seq[n - window..]));
+            }
+            seq.pop();
+            if seq.is_empty() {
+                return None;
+            }
+            continue;
+        }
+        let next = order[last][*k];
+        *k += 1;
+        seq.push(next);
+        let n = seq.len();
+        if n >= window && !used.insert(key(&seq[n - window..])) {
+            seq.pop();
+            continue;
+        }
+        choice.push(0);
+    }
+    Some(seq)
+}
+
+impl Family {
+    /// Coefficients (a, b, c) of the family's coordinate in *stripe units*,
+    /// `q = a·u + b·v + c`, so that stripe `j` covers `j <= q < j + 1` and the boundary
+    /// between stripes `j - 1` and `j` is `q = j`.
+    pub fn stripe_coord(&self, width: u32, height: u32) -> (f64, f64, f64) {
+        let (s, c) = self.angle_deg.to_radians().sin_cos();
+        let (ou, ov) = ((width as f64 - 1.0) / 2.0, (height as f64 - 1.0) / 2.0);
+        let w = self.stripe_width;
+        (c / w, s / w, (-ou * c - ov * s - self.origin) / w)
+    }
+
+    /// Range of the family coordinate `s` over the projector image's pixel area.
+    fn extent(angle_deg: f64, width: u32, height: u32) -> (f64, f64) {
+        let (s, c) = angle_deg.to_radians().sin_cos();
+        let (hu, hv) = (width as f64 / 2.0, height as f64 / 2.0);
+        let r = hu * c.abs() + hv * s.abs();
+        (-r, r)
+    }
+}
+
+impl PatternSpec {
+    /// A pattern of `directions` stripe families for a `width` x `height` projector
+    /// with stripes `stripe_width` projector pixels wide.
+    ///
+    /// ```
+    /// let spec = stripelight::PatternSpec::generate(2, 1024, 768, 10.0).unwrap();
+    /// assert_eq!(spec.families.len(), 2);
+    /// spec.validate().unwrap();
+    /// ```
+    pub fn generate(directions: usize, width: u32, height: u32, stripe_width: f64) -> Result<Self> {
+        let angles = family_angles(directions)?;
+        if width == 0 || height == 0 || width > 16384 || height > 16384 {
+            return Err(Error::Invalid(format!("projector size {width}x{height} is not in 1..=16384")));
+        }
+        if !(stripe_width.is_finite() && stripe_width >= 2.0) {
+            return Err(Error::Invalid(format!("stripe width must be at least 2 pixels, got {stripe_width}")));
+        }
+        let mut families = Vec::new();
+        for &angle in angles {
+            let (lo, hi) = Family::extent(angle, width, height);
+            let count = ((hi - lo) / stripe_width).ceil() as usize;
+            // Centre the stripes on the image so both ends are cut alike.
+            let origin = (lo + hi) / 2.0 - count as f64 * stripe_width / 2.0;
+            families.push(Family {
+                angle_deg: angle,
+                stripe_width,
+                origin,
+                count,
+            });
+        }
+        let needed = families.iter().map(|f| f.count).max().unwrap_or(0);
+        let (window, sequence) = (3..=8)
+            .find_map(|w| windowed_sequence(needed, w).map(|s| (w, s)))
+            .ok_or_else(|| Error::Invalid(format!("no windowed sequence of {needed} stripes found")))?;
+        let low = [0.25, 0.35, 0.45][directions - 1];
+        Ok(PatternSpec {
+            format: SPEC_FORMAT.into(),
+            version: SPEC_VERSION,
+            width,
+            height,
+            encoding_gamma: 2.2,
+            palette: binary_palette(low),
+            sequence,
+            window,
+            families,
+        })
+    }
+
+    /// Parse and validate a spec file. Errors name the offending field.
+    pub fn from_json(text: &str) -> Result<Self> {
+        let de = &mut serde_json::Deserializer::from_str(text);
+        let spec: PatternSpec = serde_path_to_error::deserialize(de).map_err(|e| {
+            let path = e.path().to_string();
+            Error::Spec {
+                field: if path == "." { "(file)".into() } else { path },
+                problem: e.into_inner().to_string(),
+            }
+        })?;
+        spec.validate()?;
+        Ok(spec)
+    }
+
+    /// Pretty JSON.
+    pub fn to_json(&self) -> String {
+        serde_json::to_string_pretty(self).unwrap_or_default()
+    }
+
+    /// Check that the spec is complete, consistent and decodable.
+    pub fn validate(&self) -> Result<()> {
+        let err = |field: &str, problem: String| Error::Spec {
+            field: field.into(),
+            problem,
+        };
+        if self.format != SPEC_FORMAT {
+            return Err(err("format", format!("must be {SPEC_FORMAT:?}, got {:?}", self.format)));
+        }
+        if self.version != SPEC_VERSION {
+            return Err(err("version", format!("version {} is not supported (this build reads {SPEC_VERSION})", self.version)));
+        }
+        if self.width == 0 || self.height == 0 || self.width > 16384 || self.height > 16384 {
+            return Err(err("width", format!("projector size {}x{} is not in 1..=16384", self.width, self.height)));
+        }
+        if !(self.encoding_gamma.is_finite() && (0.2..=5.0).contains(&self.encoding_gamma)) {
+            return Err(err("encoding_gamma", format!("must be in 0.2..=5, got {}", self.encoding_gamma)));
+        }
+        if self.palette.len() < 2 || self.palette.len() > 256 {
+            return Err(err("palette", format!("needs 2..=256 colours, got {}", self.palette.len())));
+        }
+        for (i, c) in self.palette.iter().enumerate() {
+            if c.iter().any(|x| !(x.is_finite() && *x > 0.0 && *x <= 1.0)) {
+                return Err(err(&format!("palette[{i}]"), format!("channels must be in (0, 1] (no channel may be zero), got {c:?}")));
+            }
+        }
+        if let Some(i) = self.sequence.iter().position(|&s| s as usize >= self.palette.len()) {
+            return Err(err(&format!("sequence[{i}]"), format!("index {} is outside the palette of {}", self.sequence[i], self.palette.len())));
+        }
+        for (i, w) in self.sequence.windows(2).enumerate() {
+            if transition(self.palette[w[0] as usize], self.palette[w[1] as usize]) == [0; 3] {
+                return Err(err(&format!("sequence[{}]", i + 1), "adjacent stripes have the same colour".into()));
+            }
+        }
+        if self.window < 2 || self.window > self.sequence.len().max(2) {
+            return Err(err("window", format!("must be in 2..=sequence length, got {}", self.window)));
+        }
+        let mut seen = std::collections::HashMap::new();
+        for (i, w) in self.sequence.windows(self.window).enumerate() {
+            let key: Vec<Transition> = w.windows(2).map(|p| transition(self.palette[p[0] as usize], self.palette[p[1] as usize])).collect();
+            if let Some(j) = seen.insert(key, i) {
+                return Err(err("sequence", format!("windows at {j} and {i} have the same transitions, so stripes cannot be identified")));
+            }
+        }
+        if self.families.is_empty() || self.families.len() > 3 {
+            return Err(err("families", format!("needs 1..=3 families, got {}", self.families.len())));
+        }
+        for (i, f) in self.families.iter().enumerate() {
+            let field = |n: &str| format!("families[{i}].{n}");
+            if !f.angle_deg.is_finite() {
+                return Err(err(&field("angle_deg"), "must be finite".into()));
+            }
+            if !(f.stripe_width.is_finite() && f.stripe_width >= 2.0) {
+                return Err(err(&field("stripe_width"), format!("must be at least 2 pixels, got {}", f.stripe_width)));
+            }
+            if !f.origin.is_finite() {
+                return Err(err(&field("origin"), "must be finite".into()));
+            }
+            if f.count < 2 || f.count > self.sequence.len() {
+                return Err(err(&field("count"), format!("must be in 2..={} (the sequence length), got {}", self.sequence.len(), f.count)));
+            }
+            let (lo, hi) = Family::extent(f.angle_deg, self.width, self.height);
+            if f.origin > lo + 1e-6 || f.origin + f.count as f64 * f.stripe_width < hi - 1e-6 {
+                return Err(err(&field("count"), format!("stripes cover {:.1}..{:.1} but the image spans {lo:.1}..{hi:.1}", f.origin, f.origin + f.count as f64 * f.stripe_width)));
+            }
+        }
+        Ok(())
+    }
+
+    /// Linear colour of stripe `j` (clamped to the family's stripes).
+    pub fn stripe_color(&self, family: usize, j: i64) -> [f64; 3] {
+        let count = self.families[family].count as i64;
+        let j = j.clamp(0, count - 1) as usize;
+        self.palette[self.sequence[j] as usize]
+    }
+
+    /// The transition from stripe `j - 1` to stripe `j`.
+    pub fn boundary_transition(&self, family: usize, j: usize) -> Transition {
+        transition(self.stripe_color(family, j as i64 - 1), self.stripe_color(family, j as i64))
+    }
+
+    /// The family's linear colour averaged over the pixel at (u, v).
+    fn family_pixel(&self, family: usize, u: usize, v: usize) -> [f64; 3] {
+        let (a, b, c) = self.families[family].stripe_coord(self.width, self.height);
+        let n = SUPERSAMPLE;
+        let mut sum = [0.0; 3];
+        for sy in 0..n {
+            for sx in 0..n {
+                let du = (sx as f64 + 0.5) / n as f64 - 0.5;
+                let dv = (sy as f64 + 0.5) / n as f64 - 0.5;
+                let q = a * (u as f64 + du) + b * (v as f64 + dv) + c;
+                let col = self.stripe_color(family, q.floor() as i64);
+                for k in 0..3 {
+                    sum[k] += col[k];
+                }
+            }
+        }
+        sum.map(|x| x / (n * n) as f64)
+    }
+
+    /// One family's stripes alone, in linear light.
+    pub fn render_family_linear(&self, family: usize) -> Image<Rgb> {
+        let mut img = Image::new(self.width as usize, self.height as usize, [0f32; 3]);
+        for v in 0..self.height as usize {
+            for u in 0..self.width as usize {
+                *img.get_mut(u, v) = self.family_pixel(family, u, v).map(|x| x as f32);
+            }
+        }
+        img
+    }
+
+    /// The combined pattern (product of the families) in linear light.
+    pub fn render_linear(&self) -> Image<Rgb> {
+        let mut img = Image::new(self.width as usize, self.height as usize, [1f32; 3]);
+        for f in 0..self.families.len() {
+            let fam = self.render_family_linear(f);
+            for (p, q) in img.pixels_mut().iter_mut().zip(fam.pixels()) {
+                for k in 0..3 {
+                    p[k] *= q[k];
+                }
+            }
+        }
+        img
+    }
+
+    /// The pattern as the 8-bit image to show on the projector.
+    pub fn render_rgb8(&self) -> Image<[u8; 3]> {
+        crate::raster::linear_to_rgb8(&self.render_linear(), self.encoding_gamma as f32)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn generated_specs_validate_and_round_trip() {
+        for n in 1..=3 {
+            let spec = PatternSpec::generate(n, 1024, 768, DEFAULT_STRIPE_WIDTH).unwrap();
+            spec.validate().unwrap();
+            assert_eq!(PatternSpec::from_json(&spec.to_json()).unwrap(), spec);
+        }
+    }
+}

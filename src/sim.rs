@@ -1,0 +1,1 @@
+//! Projector-camera simulator with per-pixel ground truth. Placeholder until written.
