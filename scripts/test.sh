@@ -1,0 +1,19 @@
+#!/usr/bin/env bash
+# Installs what is missing, then runs every test: native, wasm in headless Chromium,
+# and (when present) the end-to-end browser test of the page.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+scripts/setup.sh
+
+echo "== native tests" >&2
+cargo test --locked
+
+echo "== wasm tests in headless Chromium" >&2
+export CHROMEDRIVER=/usr/bin/chromedriver
+cargo test --locked --target wasm32-unknown-unknown --lib --tests
+
+if [ -f tests/e2e/run.mjs ]; then
+  echo "== end-to-end browser test" >&2
+  scripts/build-web.sh
+  node tests/e2e/run.mjs
+fi
