@@ -11,21 +11,36 @@
 //! |---|---|
 //! | coded stripe patterns and their spec files | [`pattern`] |
 //! | log-gradient illumination restoration (eq. 5-8) | [`filter`] |
+//! | stripe boundaries and their colour transitions | [`segment`] |
+//! | stripe identification from neighbour windows | [`decode`] |
+//! | depth from a calibrated projector-camera pair | [`triangulate`] |
+//! | merging the range images of the families | [`merge`] |
+//! | point clouds and PLY | [`cloud`] |
+//! | the long-lived scanner that runs the stages per frame | [`scan`] |
 //! | projector-camera calibration and rays | [`calib`] |
 //! | projector-camera simulator with ground truth | [`sim`] |
-//! | images, PNG/PFM/PLY reading and writing | [`raster`], [`io`] |
+//! | accuracy against ground truth | [`eval`] |
+//! | images, PNG/PFM reading and writing | [`raster`], [`io`] |
 //!
 //! Everything except `wasm` is plain Rust with no knowledge of the browser; the
 //! `wasm` module is the one thin boundary the web page talks to.
 #![deny(missing_docs)]
 
-pub mod calib;
-pub mod error;
-pub mod filter;
-pub mod io;
 pub mod pattern;
-pub mod raster;
+pub mod filter;
+pub mod segment;
+pub mod decode;
+pub mod triangulate;
+pub mod merge;
+pub mod scan;
+pub mod stages;
+pub mod cloud;
+pub mod calib;
 pub mod sim;
+pub mod eval;
+pub mod error;
+pub mod io;
+pub mod raster;
 
 #[cfg(target_arch = "wasm32")]
 pub mod wasm;

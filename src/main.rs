@@ -15,6 +15,7 @@ mod cli {
     use clap::{Parser, Subcommand};
     use std::path::{Path, PathBuf};
     use stripelight::error::Result;
+    use stripelight::scan::{FilterMode, ScanConfig, Scanner};
     use stripelight::{io, Calibration, Error, PatternSpec};
 
     #[derive(Parser)]
@@ -47,6 +48,55 @@ mod cli {
             #[arg(long)]
             spec: PathBuf,
         },
+        /// Decode a camera frame into a depth map and a point cloud.
+        Scan {
+            /// The pattern spec (JSON) the projector showed.
+            #[arg(long)]
+            spec: PathBuf,
+            /// The calibration (JSON).
+            #[arg(long)]
+            calib: PathBuf,
+            /// The camera frame (PNG or JPEG), the calibration's camera size.
+            #[arg(long)]
+            image: PathBuf,
+            /// direct, loggrad or loggrad-norot.
+            #[arg(long, default_value = "loggrad")]
+            filter: String,
+            /// The camera's encoding gamma (8-bit value = 255 · linear^(1/gamma)).
+            #[arg(long, default_value_t = 2.2)]
+            camera_gamma: f32,
+            /// Depth map out (PFM, Z in mm, NaN where none).
+            #[arg(long)]
+            depth: Option<PathBuf>,
+            /// Point cloud out (PLY).
+            #[arg(long)]
+            ply: Option<PathBuf>,
+            /// Write the PLY as ASCII instead of binary.
+            #[arg(long)]
+            ascii: bool,
+            /// Write every stage as a PNG into this folder (made if missing).
+            #[arg(long)]
+            debug: Option<PathBuf>,
+            /// The camera's colour mixing, 9 numbers row by row (camera channel =
+            /// row · projector primaries); `sim` for the simulator's default.
+            #[arg(long)]
+            crosstalk: Option<String>,
+        },
+        /// Render built-in scenes, scan them and print the accuracy table (Markdown).
+        Eval {
+            /// Scenes to evaluate (default: all built-in scenes).
+            #[arg(long, value_delimiter = ',')]
+            scenes: Vec<String>,
+            /// Numbers of directions (default 1,2,3).
+            #[arg(long, value_delimiter = ',', default_values_t = [1usize, 2, 3])]
+            directions: Vec<usize>,
+            /// Filters (default direct,loggrad).
+            #[arg(long, value_delimiter = ',', default_values_t = [String::from("direct"), String::from("loggrad")])]
+            filters: Vec<String>,
+            /// Noise seed of the simulator.
+            #[arg(long, default_value_t = 1)]
+            seed: u64,
+        },
         /// Write a calibration file.
         Calib {
             /// The demo rig (VGA camera, XGA projector, 200 mm diagonal baseline).
@@ -58,6 +108,28 @@ mod cli {
             /// The calibration (JSON).
             #[arg(long)]
             out: PathBuf,
+        },
+        /// Simulate the camera frame of a built-in scene lit by a pattern, with its
+        /// ground-truth depth.
+        Render {
+            /// plane, sphere, paper, textured or occluders.
+            #[arg(long)]
+            scene: String,
+            /// The pattern spec (JSON) the projector shows.
+            #[arg(long)]
+            spec: PathBuf,
+            /// The calibration (JSON); its projector must have the pattern's size.
+            #[arg(long)]
+            calib: PathBuf,
+            /// The simulated camera frame (PNG).
+            #[arg(long)]
+            out: PathBuf,
+            /// Ground-truth depth out (PFM, Z in mm, NaN where no surface).
+            #[arg(long)]
+            depth: Option<PathBuf>,
+            /// Seed of the sensor noise.
+            #[arg(long, default_value_t = 0)]
+            seed: u64,
         },
     }
 
@@ -100,6 +172,15 @@ mod cli {
         PatternSpec::from_json(&read_text(path)?).map_err(|e| prefix(path, e))
     }
 
+    fn parse_matrix(text: &str) -> Result<[[f32; 3]; 3]> {
+        let bad = || Error::Invalid(format!("--crosstalk needs 9 comma-separated numbers or `sim`, got {text:?}"));
+        let values: Vec<f32> = text.split(',').map(|v| v.trim().parse().map_err(|_| bad())).collect::<Result<_>>()?;
+        if values.len() != 9 {
+            return Err(bad());
+        }
+        Ok([[values[0], values[1], values[2]], [values[3], values[4], values[5]], [values[6], values[7], values[8]]])
+    }
+
     fn prefix(path: &Path, e: Error) -> Error {
         Error::Invalid(format!("{}: {e}", path.display()))
     }
@@ -120,12 +201,95 @@ mod cli {
                 );
                 Ok(())
             }
+            Command::Scan { spec, calib, image, filter, camera_gamma, depth, ply, ascii, debug, crosstalk } => {
+                let spec = load_spec(&spec)?;
+                let calib = load_calib(&calib)?;
+                let filter: FilterMode = filter.parse()?;
+                let frame = io::read_rgb8(&image)?;
+                let crosstalk = match crosstalk.as_deref() {
+                    None => stripelight::scan::IDENTITY_CROSSTALK,
+                    Some("sim") => stripelight::sim::SimConfig::default().crosstalk,
+                    Some(text) => parse_matrix(text)?,
+                };
+                let config = ScanConfig { filter, camera_gamma, keep_stages: debug.is_some(), crosstalk };
+                let mut scanner = Scanner::new(spec, calib, config)?;
+                let result = scanner.scan(&frame).map_err(|e| Error::Invalid(format!("{}: {e}", image.display())))?;
+                let stats = &result.stats;
+                let families: Vec<String> = stats.decoded.iter().enumerate().map(|(k, n)| format!("family {k}: {n}")).collect();
+                eprintln!(
+                    "{} points ({}), {} of {} pixels usable, filter {}",
+                    stats.merged,
+                    families.join(", "),
+                    stats.usable,
+                    stats.width * stats.height,
+                    stats.filter
+                );
+                if stats.merged == 0 {
+                    eprintln!("nothing decoded: is the pattern in view, in focus and not over- or under-exposed?");
+                }
+                if let Some(path) = depth {
+                    io::write_file(&path, &io::encode_pfm(&result.depth))?;
+                }
+                if let Some(path) = ply {
+                    io::write_file(&path, &stripelight::cloud::encode_ply(&result.points, ascii))?;
+                }
+                if let Some(dir) = debug {
+                    std::fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;
+                    for stage in scanner.stages() {
+                        io::write_file(&dir.join(format!("{}.png", stage.name)), &io::encode_png(&stage.image)?)?;
+                    }
+                }
+                Ok(())
+            }
+            Command::Eval { scenes, directions, filters, seed } => {
+                let scenes: Vec<String> = if scenes.is_empty() {
+                    stripelight::sim::Scene::NAMES.iter().map(|s| s.to_string()).collect()
+                } else {
+                    scenes
+                };
+                let filters = filters.iter().map(|f| f.parse()).collect::<Result<Vec<FilterMode>>>()?;
+                let calib = Calibration::demo();
+                let mut rows = Vec::new();
+                for scene in &scenes {
+                    for &n in &directions {
+                        for &f in &filters {
+                            rows.push(stripelight::eval::evaluate(scene, n, f, &calib, seed)?);
+                        }
+                    }
+                }
+                print!("{}", stripelight::eval::markdown(&rows));
+                Ok(())
+            }
             Command::Calib { default, distorted, out } => {
                 if !default && !distorted {
                     return Err(Error::Invalid("calib needs --default or --distorted".into()));
                 }
                 let calib = if distorted { Calibration::demo_distorted() } else { Calibration::demo() };
                 io::write_file(&out, calib.to_json().as_bytes())
+            }
+            Command::Render { scene, spec, calib, out, depth, seed } => {
+                use stripelight::sim;
+                let scene = sim::Scene::builtin(&scene)?;
+                let pattern = load_spec(&spec)?;
+                let calib = load_calib(&calib)?;
+                let (pw, ph) = (calib.projector.width, calib.projector.height);
+                if (pattern.width, pattern.height) != (pw, ph) {
+                    return Err(Error::Invalid(format!(
+                        "the pattern is {}x{} but the calibration's projector is {pw}x{ph}",
+                        pattern.width, pattern.height
+                    )));
+                }
+                let cfg = sim::SimConfig {
+                    projector_gamma: pattern.encoding_gamma as f32,
+                    seed,
+                    ..sim::SimConfig::default()
+                };
+                let frame = sim::render(&scene, &calib, &pattern.render_rgb8(), &cfg)?;
+                io::write_file(&out, &io::encode_png(&frame.image)?)?;
+                if let Some(path) = depth {
+                    io::write_file(&path, &io::encode_pfm(&frame.depth))?;
+                }
+                Ok(())
             }
         }
     }

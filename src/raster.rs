@@ -7,7 +7,7 @@
 use crate::error::{Error, Result};
 
 /// A `width` x `height` image of `T`, stored row by row.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, Default, PartialEq)]
 pub struct Image<T> {
     width: usize,
     height: usize,

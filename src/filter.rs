@@ -1,2 +1,0 @@
-//! Log-gradient illumination restoration (paper section 3, eq. 5-8). Placeholder
-//! until the filter issue lands.

@@ -1,0 +1,173 @@
+//! A planned 2-D real FFT of one image size, with every buffer made once.
+//!
+//! Layout: the spectrum of a `width` x `height` real image holds `width / 2 + 1`
+//! columns of `height` complex values each, stored **column by column**
+//! (`spectrum[k * height + y]` is horizontal frequency `k`, vertical frequency `y`),
+//! so that the vertical transforms run on contiguous memory.
+//!
+//! Normalization: neither direction scales (RustFFT's convention), so
+//! `inverse(forward(x)) = width · height · x`; callers fold `1 / (width · height)` into
+//! their frequency-domain filters.
+
+use crate::error::{Error, Result};
+use realfft::{ComplexToReal, RealFftPlanner, RealToComplex};
+use rustfft::num_complex::Complex32;
+use rustfft::{Fft, FftPlanner};
+use std::sync::Arc;
+
+/// Forward and inverse 2-D real transforms for one size.
+pub struct Fft2 {
+    width: usize,
+    height: usize,
+    row_forward: Arc<dyn RealToComplex<f32>>,
+    row_inverse: Arc<dyn ComplexToReal<f32>>,
+    col_forward: Arc<dyn Fft<f32>>,
+    col_inverse: Arc<dyn Fft<f32>>,
+    row_real: Vec<f32>,
+    row_complex: Vec<Complex32>,
+    scratch: Vec<Complex32>,
+}
+
+impl Fft2 {
+    /// Plan transforms for `width` x `height` images (both at least 1).
+    pub fn new(width: usize, height: usize) -> Self {
+        let mut real = RealFftPlanner::<f32>::new();
+        let mut complex = FftPlanner::<f32>::new();
+        let row_forward = real.plan_fft_forward(width);
+        let row_inverse = real.plan_fft_inverse(width);
+        let col_forward = complex.plan_fft_forward(height);
+        let col_inverse = complex.plan_fft_inverse(height);
+        let scratch_len = [
+            row_forward.get_scratch_len(),
+            row_inverse.get_scratch_len(),
+            col_forward.get_inplace_scratch_len(),
+            col_inverse.get_inplace_scratch_len(),
+        ]
+        .into_iter()
+        .max()
+        .unwrap_or(0);
+        Fft2 {
+            width,
+            height,
+            row_forward,
+            row_inverse,
+            col_forward,
+            col_inverse,
+            row_real: vec![0.0; width],
+            row_complex: vec![Complex32::new(0.0, 0.0); width / 2 + 1],
+            scratch: vec![Complex32::new(0.0, 0.0); scratch_len],
+        }
+    }
+
+    /// Number of complex values in a spectrum: `(width / 2 + 1) * height`.
+    pub fn spectrum_len(&self) -> usize {
+        (self.width / 2 + 1) * self.height
+    }
+
+    /// Forward transform of a row-major real image into a column-major spectrum.
+    pub fn forward(&mut self, image: &[f32], spectrum: &mut [Complex32]) -> Result<()> {
+        let (w, h) = (self.width, self.height);
+        debug_assert_eq!(image.len(), w * h);
+        debug_assert_eq!(spectrum.len(), self.spectrum_len());
+        for y in 0..h {
+            self.row_real.copy_from_slice(&image[y * w..(y + 1) * w]);
+            self.row_forward
+                .process_with_scratch(&mut self.row_real, &mut self.row_complex, &mut self.scratch)
+                .map_err(fft_error)?;
+            for (k, &c) in self.row_complex.iter().enumerate() {
+                spectrum[k * h + y] = c;
+            }
+        }
+        // All columns at once: RustFFT transforms each `height`-long chunk.
+        self.col_forward.process_with_scratch(spectrum, &mut self.scratch);
+        Ok(())
+    }
+
+    /// Inverse transform of a column-major spectrum (destroyed) into a row-major real
+    /// image, unscaled.
+    pub fn inverse(&mut self, spectrum: &mut [Complex32], image: &mut [f32]) -> Result<()> {
+        let (w, h) = (self.width, self.height);
+        debug_assert_eq!(image.len(), w * h);
+        self.col_inverse.process_with_scratch(spectrum, &mut self.scratch);
+        for y in 0..h {
+            for (k, c) in self.row_complex.iter_mut().enumerate() {
+                *c = spectrum[k * h + y];
+            }
+            // A real row's DC (and, for even widths, Nyquist) bin is real; rounding
+            // leaves tiny imaginary parts there, which realfft would report.
+            self.row_complex[0].im = 0.0;
+            if w % 2 == 0 {
+                self.row_complex[w / 2].im = 0.0;
+            }
+            self.row_inverse
+                .process_with_scratch(&mut self.row_complex, &mut image[y * w..(y + 1) * w], &mut self.scratch)
+                .map_err(fft_error)?;
+        }
+        Ok(())
+    }
+}
+
+fn fft_error(e: realfft::FftError) -> Error {
+    Error::Invalid(format!("internal FFT error: {e}"))
+}
+
+/// Smallest even n >= `min` whose only prime factors are 2, 3, 5 and 7 (RustFFT has
+/// butterflies for all four).
+pub fn fast_size(min: usize) -> usize {
+    let mut n = min.max(2);
+    loop {
+        let mut m = n;
+        for p in [2, 3, 5, 7] {
+            while m % p == 0 {
+                m /= p;
+            }
+        }
+        if m == 1 && n % 2 == 0 {
+            return n;
+        }
+        n += 1;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The forward transform equals a naive 2-D DFT, and inverse(forward(x)) = N x.
+    #[test]
+    fn matches_a_naive_dft() {
+        for (w, h) in [(6, 5), (8, 4), (7, 9)] {
+            let img: Vec<f32> = (0..w * h).map(|i| ((i * 37 % 11) as f32 - 5.0) * 0.3 + (i as f32 * 0.7).sin()).collect();
+            let mut fft = Fft2::new(w, h);
+            let mut spec = vec![Complex32::new(0.0, 0.0); fft.spectrum_len()];
+            fft.forward(&img, &mut spec).unwrap();
+            for k in 0..w / 2 + 1 {
+                for l in 0..h {
+                    let mut sum = (0.0f64, 0.0f64);
+                    for y in 0..h {
+                        for x in 0..w {
+                            let ang = -2.0 * std::f64::consts::PI * (k as f64 * x as f64 / w as f64 + l as f64 * y as f64 / h as f64);
+                            let v = img[y * w + x] as f64;
+                            sum.0 += v * ang.cos();
+                            sum.1 += v * ang.sin();
+                        }
+                    }
+                    let got = spec[k * h + l];
+                    assert!((got.re as f64 - sum.0).abs() < 1e-3 && (got.im as f64 - sum.1).abs() < 1e-3, "{w}x{h} ({k},{l}): {got} vs {sum:?}");
+                }
+            }
+            let mut back = vec![0.0; w * h];
+            fft.inverse(&mut spec, &mut back).unwrap();
+            for (a, b) in img.iter().zip(&back) {
+                assert!((a * (w * h) as f32 - b).abs() < 1e-3);
+            }
+        }
+    }
+
+    #[test]
+    fn fast_sizes_are_even_and_smooth() {
+        assert_eq!(fast_size(672), 672);
+        assert_eq!(fast_size(673), 686);
+        assert_eq!(fast_size(511), 512);
+    }
+}

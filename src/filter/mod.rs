@@ -1,0 +1,453 @@
+//! Log-gradient illumination restoration (paper section 3, eq. 5-8, and section 4).
+//!
+//! The captured light is `I = S · L` per channel (surface reflectance times projected
+//! light, eq. 3). In the log domain the product is a sum, and a derivative across the
+//! stripes sees mostly the stripes' transitions because the surface's colour changes
+//! slowly (eq. 4). The restoration re-integrates only the derivative across the
+//! stripes (eq. 6), so what comes back is, to a good degree, the projected light.
+//!
+//! Two implementations share one output type, [`Restored`]:
+//!
+//! - [`reference`]: the paper to the letter. For each of 17 angles (0 to 160 degrees
+//!   in 10 degree steps) rotate the image, take the log, apply the Sobel x-derivative
+//!   (eq. 5), restore by FFT division (eq. 6), exponentiate and rotate back (eq. 7);
+//!   per pixel pick the angle whose restored image has the largest gradient magnitude
+//!   (eq. 8). Slow; kept for tests and teaching.
+//! - [`LogGradFilter`]: the same restoration at a cost that does not grow with the
+//!   number of angles. For an ideal derivative the directional derivative is
+//!   steerable, `D_φ = cos φ·Dx + sin φ·Dy`, so the restoration filter of eq. 6,
+//!   `|D_φ|² / (|Dx|² + |Dy|²)`, is `cos²φ·Hxx + sin²φ·Hyy + 2 sin φ cos φ·Hxy` with
+//!   three fixed frequency responses. Because `Hxx + Hyy = 1` (except at the four
+//!   frequencies where the denominator vanishes), one forward transform of each
+//!   channel's log image and two inverse transforms (`Hxx` and `Hxy`) give
+//!   `ĩ^φ = P + cos 2φ·Q + sin 2φ·C` at every angle as a per-pixel combination of
+//!   three planes. Per pixel the angle maximizes the log-domain gradient energy
+//!   `Σ_c |∇ĩ_c^φ|²`, a quadratic form in `(cos 2φ, sin 2φ)` whose six coefficients are
+//!   box-filtered over about one stripe period so that the choice is stable.
+//!
+//! Where the two differ: the reference resamples the image twice (bilinear rotation
+//! and back), Sobel is only approximately steerable (its responses at 0 and 90
+//! degrees are exact, the steered combination at other angles is not the rotated
+//! Sobel), the reference's rotated canvas has different borders, and eq. 8 is taken on
+//! `exp(ĩ)` in the reference but on `ĩ` (which is independent of the surface's
+//! brightness) and smoothed in the fast version. `tests/filter.rs` measures the
+//! agreement.
+//!
+//! Numeric conventions, shared by both:
+//! - **log guard**: `ln(max(I, LOG_FLOOR))` with linear `I` in 0..=1; below the floor
+//!   the camera's noise dominates and ratios mean nothing.
+//! - **DC and the other null frequencies**: the denominator `|Dx|² + |Dy|²` of the
+//!   Sobel pair vanishes at (0, 0), (π, 0), (0, π) and (π, π); the restoration is set
+//!   to 0 there. So the restored log image has zero mean: absolute brightness is lost
+//!   and only ratios across the stripes survive, which is all that decoding uses.
+//! - **borders**: each image is padded to an FFT-friendly size with at least
+//!   [`PAD_MIN`] extra pixels; the padding blends linearly from the last row/column
+//!   back to the first, so the periodic image the FFT assumes has no jump at its seams.
+//! - **angles** are the direction *across* the stripes (the stripes' normal), radians,
+//!   from the image's +u axis towards +v (down), taken modulo π.
+
+pub mod fft2;
+pub mod reference;
+
+use crate::error::{Error, Result};
+use crate::raster::{Image, Rgb};
+use crate::scan::FilterMode;
+use fft2::{fast_size, Fft2};
+use rustfft::num_complex::Complex32;
+use std::f32::consts::PI;
+
+/// Linear values below this are clamped before the log. 0.002 is about 8-bit code 15
+/// through gamma 2.2: the level where webcam noise is as large as the signal.
+pub const LOG_FLOOR: f32 = 0.002;
+
+/// Least padding added to each dimension before the FFT, pixels: a few Sobel
+/// supports, so that the seam blend is gentle.
+pub const PAD_MIN: usize = 24;
+
+/// The paper's 17 angles: 0 to 160 degrees in 10 degree steps.
+pub const PAPER_ANGLES_DEG: [f32; 17] = [
+    0.0, 10.0, 20.0, 30.0, 40.0, 50.0, 60.0, 70.0, 80.0, 90.0, 100.0, 110.0, 120.0, 130.0, 140.0, 150.0, 160.0,
+];
+
+/// Radius of the box filter over the angle criterion, pixels: a 7x7 window is about
+/// one stripe period on the demo rig (6.5 camera pixels).
+pub const ANGLE_SMOOTH_RADIUS: usize = 3;
+
+/// Smallest image the filter accepts (a Sobel window and some stripes).
+pub const MIN_SIZE: usize = 8;
+
+/// Where to look for one stripe family's direction.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FamilyWindow {
+    /// Expected normal angle of the family in the camera image, radians.
+    pub expected: f32,
+    /// Half the width of the angle window, radians: π/2 for one family, π/4 for two,
+    /// π/6 for three (paper section 4).
+    pub half_width: f32,
+}
+
+impl FamilyWindow {
+    /// Windows for `expected` angles of 1, 2 or 3 families.
+    pub fn for_families(expected: &[f32]) -> Vec<FamilyWindow> {
+        let half_width = PI / (2.0 * expected.len().max(1) as f32);
+        expected.iter().map(|&e| FamilyWindow { expected: e, half_width }).collect()
+    }
+}
+
+/// One family's restored image.
+#[derive(Clone, Debug, Default)]
+pub struct Restored {
+    /// Width, pixels.
+    pub width: usize,
+    /// Height, pixels.
+    pub height: usize,
+    /// Restored log colour per channel (`ĩ`, zero mean), row-major. For the `direct`
+    /// filter, the log of the captured linear colour.
+    pub log: [Vec<f32>; 3],
+    /// The normal angle chosen per pixel, radians in [0, π).
+    pub angle: Vec<f32>,
+    /// The family's dominant normal angle in this frame, radians in [0, π).
+    pub dominant: f32,
+}
+
+impl Restored {
+    /// An empty result for a `width` x `height` image.
+    pub fn new(width: usize, height: usize) -> Self {
+        let n = width * height;
+        Restored { width, height, log: [vec![0.0; n], vec![0.0; n], vec![0.0; n]], angle: vec![0.0; n], dominant: 0.0 }
+    }
+}
+
+/// Difference of two angles modulo π, in [-π/2, π/2).
+pub fn angle_diff(a: f32, b: f32) -> f32 {
+    (a - b + PI / 2.0).rem_euclid(PI) - PI / 2.0
+}
+
+/// Frequency responses of the Sobel pair on a `pw` x `ph` grid, in the column-major
+/// spectrum layout of [`Fft2`], divided by the denominator and by `pw · ph` (the
+/// inverse FFT's scale): `(Hxx, Hxy)` with `Hxx = |Dx|²/den`, `Hxy = Re(Dx·conj Dy)/den`.
+///
+/// With Sobel `Dx = [1 2 1]ᵀ/4 ⊗ [-1 0 1]/2`, `|Dx|² = sin²ωx · ((1 + cos ωy)/2)²` and
+/// `Re(Dx·conj Dy) = sin ωx sin ωy (1 + cos ωx)(1 + cos ωy)/4`.
+pub fn sobel_responses(pw: usize, ph: usize) -> (Vec<f32>, Vec<f32>) {
+    let cols = pw / 2 + 1;
+    let mut hxx = vec![0.0; cols * ph];
+    let mut hxy = vec![0.0; cols * ph];
+    let scale = 1.0 / (pw * ph) as f64;
+    for k in 0..cols {
+        let wx = 2.0 * std::f64::consts::PI * k as f64 / pw as f64;
+        for l in 0..ph {
+            let wy = 2.0 * std::f64::consts::PI * l as f64 / ph as f64;
+            let (sx, cx) = wx.sin_cos();
+            let (sy, cy) = wy.sin_cos();
+            let dx2 = sx * sx * ((1.0 + cy) / 2.0).powi(2);
+            let dy2 = sy * sy * ((1.0 + cx) / 2.0).powi(2);
+            let dxy = sx * sy * (1.0 + cx) * (1.0 + cy) / 4.0;
+            let den = dx2 + dy2;
+            // The four null frequencies (and round-off around them) restore to 0.
+            if den > 1e-12 {
+                hxx[k * ph + l] = (dx2 / den * scale) as f32;
+                hxy[k * ph + l] = (dxy / den * scale) as f32;
+            }
+        }
+    }
+    (hxx, hxy)
+}
+
+/// Copy a `w` x `h` plane into the top-left of a `pw` x `ph` buffer and fill the rest
+/// so that the periodic extension is continuous: each padded run blends linearly from
+/// the last value of the row (column) to its first.
+pub fn pad_into(src: &[f32], w: usize, h: usize, dst: &mut [f32], pw: usize, ph: usize) {
+    for y in 0..h {
+        let row = &src[y * w..(y + 1) * w];
+        let out = &mut dst[y * pw..(y + 1) * pw];
+        out[..w].copy_from_slice(row);
+        let (last, first) = (row[w - 1], row[0]);
+        let n = (pw - w + 1) as f32;
+        for (i, o) in out[w..].iter_mut().enumerate() {
+            let t = (i + 1) as f32 / n;
+            *o = last + (first - last) * t;
+        }
+    }
+    let n = (ph - h + 1) as f32;
+    for y in h..ph {
+        let t = (y - h + 1) as f32 / n;
+        for x in 0..pw {
+            let (last, first) = (dst[(h - 1) * pw + x], dst[x]);
+            dst[y * pw + x] = last + (first - last) * t;
+        }
+    }
+}
+
+/// `ln(max(x, LOG_FLOOR))` of one channel of a linear image into a plane.
+pub fn log_plane_into(img: &Image<Rgb>, channel: usize, dst: &mut [f32]) {
+    for (d, p) in dst.iter_mut().zip(img.pixels()) {
+        *d = p[channel].max(LOG_FLOOR).ln();
+    }
+}
+
+/// Box filter of radius `r` (clamped at the borders) of a `w` x `h` plane, separable,
+/// through `tmp`.
+pub fn box_filter_into(src: &[f32], dst: &mut [f32], tmp: &mut [f32], w: usize, h: usize, r: usize) {
+    let norm = 1.0 / (2 * r + 1) as f32;
+    for y in 0..h {
+        let row = &src[y * w..(y + 1) * w];
+        let out = &mut tmp[y * w..(y + 1) * w];
+        let at = |i: isize| row[i.clamp(0, w as isize - 1) as usize];
+        let mut sum: f32 = (-(r as isize)..=r as isize).map(at).sum();
+        for (x, o) in out.iter_mut().enumerate() {
+            *o = sum * norm;
+            sum += at(x as isize + r as isize + 1) - at(x as isize - r as isize);
+        }
+    }
+    for x in 0..w {
+        let at = |i: isize| tmp[i.clamp(0, h as isize - 1) as usize * w + x];
+        let mut sum: f32 = (-(r as isize)..=r as isize).map(at).sum();
+        for y in 0..h {
+            dst[y * w + x] = sum * norm;
+            sum += at(y as isize + r as isize + 1) - at(y as isize - r as isize);
+        }
+    }
+}
+
+/// The fast steerable log-gradient restoration for one image size. Owns the FFT plans,
+/// the frequency responses and every buffer; [`LogGradFilter::run`] allocates nothing.
+pub struct LogGradFilter {
+    width: usize,
+    height: usize,
+    pw: usize,
+    ph: usize,
+    fft: Fft2,
+    hxx: Vec<f32>,
+    hxy: Vec<f32>,
+    padded: Vec<f32>,
+    spectrum: Vec<Complex32>,
+    work: Vec<Complex32>,
+    out_padded: Vec<f32>,
+    /// Per channel: `P = l̃/2`, `Q = A - l̃/2`, `C`, so `ĩ^φ = P + cos2φ·Q + sin2φ·C`.
+    p: [Vec<f32>; 3],
+    q: [Vec<f32>; 3],
+    c: [Vec<f32>; 3],
+    /// The six coefficients of the angle criterion, then smoothed.
+    m: [Vec<f32>; 6],
+    tmp: Vec<f32>,
+    tmp2: Vec<f32>,
+}
+
+impl LogGradFilter {
+    /// Plan for `width` x `height` frames.
+    pub fn new(width: usize, height: usize) -> Result<Self> {
+        if width < MIN_SIZE || height < MIN_SIZE {
+            return Err(Error::Invalid(format!(
+                "image of {width}x{height} is too small to filter (at least {MIN_SIZE}x{MIN_SIZE})"
+            )));
+        }
+        let (pw, ph) = (fast_size(width + PAD_MIN), fast_size(height + PAD_MIN));
+        let fft = Fft2::new(pw, ph);
+        let (hxx, hxy) = sobel_responses(pw, ph);
+        let n = width * height;
+        let plane = || vec![0.0f32; n];
+        let spectrum_len = fft.spectrum_len();
+        Ok(LogGradFilter {
+            width,
+            height,
+            pw,
+            ph,
+            fft,
+            hxx,
+            hxy,
+            padded: vec![0.0; pw * ph],
+            spectrum: vec![Complex32::new(0.0, 0.0); spectrum_len],
+            work: vec![Complex32::new(0.0, 0.0); spectrum_len],
+            out_padded: vec![0.0; pw * ph],
+            p: [plane(), plane(), plane()],
+            q: [plane(), plane(), plane()],
+            c: [plane(), plane(), plane()],
+            m: [plane(), plane(), plane(), plane(), plane(), plane()],
+            tmp: plane(),
+            tmp2: plane(),
+        })
+    }
+
+    /// The padded FFT size, (width, height).
+    pub fn padded_size(&self) -> (usize, usize) {
+        (self.pw, self.ph)
+    }
+
+    /// Restore `linear` (linear RGB in 0..=1) for the families whose direction windows
+    /// are given, writing one [`Restored`] per window into `out`. `mode` chooses
+    /// log-gradient with per-pixel angles, log-gradient at each family's dominant
+    /// angle only, or no filtering at all.
+    pub fn run(&mut self, linear: &Image<Rgb>, windows: &[FamilyWindow], mode: FilterMode, out: &mut [Restored]) -> Result<()> {
+        linear.expect_size(self.width, self.height)?;
+        if out.len() != windows.len() || out.iter().any(|r| r.width != self.width || r.height != self.height) {
+            return Err(Error::Invalid("filter output does not match the families or the image size".into()));
+        }
+        if mode == FilterMode::Direct {
+            for r in out.iter_mut() {
+                for ch in 0..3 {
+                    log_plane_into(linear, ch, &mut r.log[ch]);
+                }
+            }
+            for (r, w) in out.iter_mut().zip(windows) {
+                r.dominant = w.expected.rem_euclid(PI);
+                r.angle.iter_mut().for_each(|a| *a = r.dominant);
+            }
+            return Ok(());
+        }
+        self.steerable_planes(linear)?;
+        self.criterion_planes();
+        for (r, w) in out.iter_mut().zip(windows) {
+            r.dominant = self.dominant_angle(w);
+        }
+        if mode == FilterMode::LogGrad {
+            for k in 0..6 {
+                box_filter_into(&self.m[k], &mut self.tmp2, &mut self.tmp, self.width, self.height, ANGLE_SMOOTH_RADIUS);
+                std::mem::swap(&mut self.m[k], &mut self.tmp2);
+            }
+        }
+        for (r, w) in out.iter_mut().zip(windows) {
+            self.compose(r, w, mode == FilterMode::LogGrad);
+        }
+        Ok(())
+    }
+
+    /// The restored log image `ĩ^φ` of every channel at one angle `phi` (radians),
+    /// for comparison with [`reference::restore_at_angle`] and for teaching.
+    pub fn restore_at_angle(&mut self, linear: &Image<Rgb>, phi: f32, out: &mut [Vec<f32>; 3]) -> Result<()> {
+        linear.expect_size(self.width, self.height)?;
+        self.steerable_planes(linear)?;
+        let (al, be) = ((2.0 * phi).cos(), (2.0 * phi).sin());
+        for ch in 0..3 {
+            out[ch].resize(self.width * self.height, 0.0);
+            for (i, o) in out[ch].iter_mut().enumerate() {
+                *o = self.p[ch][i] + al * self.q[ch][i] + be * self.c[ch][i];
+            }
+        }
+        Ok(())
+    }
+
+    /// The planes P, Q, C of every channel (eq. 5-6 for all angles at once).
+    fn steerable_planes(&mut self, linear: &Image<Rgb>) -> Result<()> {
+        let (w, h, pw, ph) = (self.width, self.height, self.pw, self.ph);
+        for ch in 0..3 {
+            log_plane_into(linear, ch, &mut self.tmp);
+            pad_into(&self.tmp, w, h, &mut self.padded, pw, ph);
+            self.fft.forward(&self.padded, &mut self.spectrum)?;
+            // l̃ = l minus its components at the four null frequencies (real for a
+            // real image): DC, (π,0), (0,π), (π,π).
+            let n = (pw * ph) as f32;
+            let mode = |k: usize, l: usize| self.spectrum[k * ph + l].re / n;
+            let (m00, m10, m01, m11) = (mode(0, 0), mode(pw / 2, 0), mode(0, ph / 2), mode(pw / 2, ph / 2));
+            for y in 0..h {
+                let sy = if y % 2 == 0 { 1.0 } else { -1.0 };
+                for x in 0..w {
+                    let sx = if x % 2 == 0 { 1.0 } else { -1.0 };
+                    let i = y * w + x;
+                    let lt = self.tmp[i] - (m00 + sx * m10 + sy * m01 + sx * sy * m11);
+                    self.p[ch][i] = 0.5 * lt;
+                }
+            }
+            for which in 0..2 {
+                let hf = if which == 0 { &self.hxx } else { &self.hxy };
+                for ((o, s), f) in self.work.iter_mut().zip(&self.spectrum).zip(hf) {
+                    *o = s * *f;
+                }
+                self.fft.inverse(&mut self.work, &mut self.out_padded)?;
+                let dst = if which == 0 { &mut self.q[ch] } else { &mut self.c[ch] };
+                for y in 0..h {
+                    dst[y * w..(y + 1) * w].copy_from_slice(&self.out_padded[y * pw..y * pw + w]);
+                }
+            }
+            // Q = A - l̃/2 = A - P.
+            for (q, p) in self.q[ch].iter_mut().zip(&self.p[ch]) {
+                *q -= *p;
+            }
+        }
+        Ok(())
+    }
+
+    /// The six per-pixel coefficients of `E(φ) = Σ_c |∇P + α∇Q + β∇C|²` with
+    /// `α = cos 2φ`, `β = sin 2φ`:
+    /// `E = m0 + 2α·m1 + 2β·m2 + α²·m3 + β²·m4 + 2αβ·m5`.
+    fn criterion_planes(&mut self) {
+        let (w, h) = (self.width, self.height);
+        for m in self.m.iter_mut() {
+            m.iter_mut().for_each(|x| *x = 0.0);
+        }
+        for ch in 0..3 {
+            let (p, q, c) = (&self.p[ch], &self.q[ch], &self.c[ch]);
+            for y in 0..h {
+                let (ym, yp) = (y.saturating_sub(1), (y + 1).min(h - 1));
+                for x in 0..w {
+                    let (xm, xp) = (x.saturating_sub(1), (x + 1).min(w - 1));
+                    let grad = |f: &[f32]| [f[y * w + xp] - f[y * w + xm], f[yp * w + x] - f[ym * w + x]];
+                    let (gp, gq, gc) = (grad(p), grad(q), grad(c));
+                    let dot = |a: [f32; 2], b: [f32; 2]| a[0] * b[0] + a[1] * b[1];
+                    let i = y * w + x;
+                    self.m[0][i] += dot(gp, gp);
+                    self.m[1][i] += dot(gp, gq);
+                    self.m[2][i] += dot(gp, gc);
+                    self.m[3][i] += dot(gq, gq);
+                    self.m[4][i] += dot(gc, gc);
+                    self.m[5][i] += dot(gq, gc);
+                }
+            }
+        }
+    }
+
+    /// The family's dominant angle: the maximum of the frame's total criterion within
+    /// its window, searched in 1 degree steps.
+    fn dominant_angle(&self, win: &FamilyWindow) -> f32 {
+        let total: Vec<f64> = self.m.iter().map(|m| m.iter().map(|&x| x as f64).sum()).collect();
+        let steps = (win.half_width.to_degrees().round() as i32).max(1);
+        let mut best = (f64::NEG_INFINITY, win.expected);
+        for d in -steps..=steps {
+            let phi = win.expected + (d as f32).to_radians();
+            let e = criterion(&total, phi as f64);
+            if e > best.0 {
+                best = (e, phi);
+            }
+        }
+        best.1.rem_euclid(PI)
+    }
+
+    /// Write one family's restored image: per pixel the paper's angle (within the
+    /// window around the dominant angle) with the largest criterion, or the dominant
+    /// angle everywhere.
+    fn compose(&self, r: &mut Restored, win: &FamilyWindow, per_pixel: bool) {
+        let candidates: Vec<(f32, f32, f32)> = PAPER_ANGLES_DEG
+            .iter()
+            .map(|d| d.to_radians())
+            .filter(|&a| angle_diff(a, r.dominant).abs() <= win.half_width * PER_PIXEL_FRACTION + 1e-4)
+            .map(|a| (a, (2.0 * a).cos(), (2.0 * a).sin()))
+            .collect();
+        let fixed = (r.dominant, (2.0 * r.dominant).cos(), (2.0 * r.dominant).sin());
+        for i in 0..self.width * self.height {
+            let (mut best, mut choice) = (f32::NEG_INFINITY, fixed);
+            if per_pixel {
+                let m = [self.m[0][i], self.m[1][i], self.m[2][i], self.m[3][i], self.m[4][i], self.m[5][i]];
+                for &(a, al, be) in &candidates {
+                    let e = m[0] + 2.0 * al * m[1] + 2.0 * be * m[2] + al * al * m[3] + be * be * m[4] + 2.0 * al * be * m[5];
+                    if e > best {
+                        best = e;
+                        choice = (a, al, be);
+                    }
+                }
+            }
+            r.angle[i] = choice.0;
+            for ch in 0..3 {
+                r.log[ch][i] = self.p[ch][i] + choice.1 * self.q[ch][i] + choice.2 * self.c[ch][i];
+            }
+        }
+    }
+}
+
+/// `E(φ)` from six coefficients (see `criterion_planes`).
+fn criterion(m: &[f64], phi: f64) -> f64 {
+    let (al, be) = ((2.0 * phi).cos(), (2.0 * phi).sin());
+    m[0] + 2.0 * al * m[1] + 2.0 * be * m[2] + al * al * m[3] + be * be * m[4] + 2.0 * al * be * m[5]
+}
+
+/// Fraction of the family window searched per pixel (experiment).
+const PER_PIXEL_FRACTION: f32 = 0.5;

@@ -1,1 +1,0 @@
-//! Projector-camera simulator with per-pixel ground truth. Placeholder until written.

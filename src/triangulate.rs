@@ -1,0 +1,115 @@
+//! Depth from stripe coordinates with the calibrated projector-camera pair.
+//!
+//! A stripe family's coordinate `q = a·u_p + b·v_p + c` (projector pixels, see
+//! [`crate::pattern::Family::stripe_coord`]) is constant on a plane of light through
+//! the projector's centre (for an undistorted projector). With the camera ray
+//! `X_c = z·r` (r = undistorted normalized pixel, `r.z = 1`) and `X_p = R·X_c + t`
+//! (`proj_from_cam`), the plane `n(q)·X_p = 0`, `n(q) = (a·fx, b·fy, a·cx + b·cy + c - q)`
+//! in normalized projector coordinates, gives
+//!
+//! `z(q) = (q·t_z - n0·t) / (n0·(R r) - q·(R r)_z)`, `n0 = n(0)`.
+//!
+//! `R r` is made once per pixel, so a depth costs a few multiplications. A distorted
+//! projector bends the light planes; there each depth is refined by Newton steps on
+//! the true projection ([`Calibration::depth_on_stripe`]).
+//!
+//! Depth `z` is Z in the camera frame, mm. `dz/dq` (mm per stripe) is returned with it:
+//! its inverse square weighs families when they are merged.
+
+use crate::calib::Calibration;
+use crate::pattern::PatternSpec;
+use glam::DVec3;
+
+/// Depths outside this range (mm) are rejected as impossible for the rig: nearer than
+/// a tenth of a metre or further than ten metres.
+pub const DEPTH_RANGE_MM: (f64, f64) = (100.0, 10_000.0);
+
+/// Per-pixel rays and per-family planes for one (calibration, pattern) pair.
+pub struct Triangulator {
+    width: usize,
+    /// Undistorted camera rays `r` (z = 1), per pixel.
+    rays: Vec<[f32; 2]>,
+    /// `R r` per pixel.
+    rotated: Vec<[f32; 3]>,
+    t: DVec3,
+    /// Per family: (a, b, c) and `n0`.
+    families: Vec<((f64, f64, f64), DVec3)>,
+    projector_distorted: bool,
+    calib: Calibration,
+}
+
+impl Triangulator {
+    /// Make the per-pixel tables for the calibration's camera size.
+    pub fn new(calib: &Calibration, spec: &PatternSpec) -> Self {
+        let (w, h) = (calib.camera.width as usize, calib.camera.height as usize);
+        let r = calib.proj_from_cam_rotation();
+        let mut rays = Vec::with_capacity(w * h);
+        let mut rotated = Vec::with_capacity(w * h);
+        for v in 0..h {
+            for u in 0..w {
+                let ray = calib.camera.ray(u as f64, v as f64);
+                rays.push([ray.x as f32, ray.y as f32]);
+                rotated.push((r * ray).as_vec3().to_array());
+            }
+        }
+        let p = &calib.projector;
+        let families = (0..spec.families.len())
+            .map(|k| {
+                let (a, b, c) = spec.families[k].stripe_coord(spec.width, spec.height);
+                ((a, b, c), DVec3::new(a * p.fx, b * p.fy, a * p.cx + b * p.cy + c))
+            })
+            .collect();
+        Triangulator {
+            width: w,
+            rays,
+            rotated,
+            t: calib.proj_from_cam_translation(),
+            families,
+            projector_distorted: p.dist != [0.0; 5],
+            calib: calib.clone(),
+        }
+    }
+
+    /// Depth (mm) and `dz/dq` (mm per stripe) of pixel index `i` on stripe coordinate
+    /// `q` of `family`; `None` when the ray misses the plane or the depth is outside
+    /// [`DEPTH_RANGE_MM`].
+    pub fn depth(&self, family: usize, i: usize, q: f64) -> Option<(f64, f64)> {
+        let (abc, n0) = self.families[family];
+        let rr = DVec3::from(self.rotated[i].map(|x| x as f64));
+        let num = q * self.t.z - n0.dot(self.t);
+        let den = n0.dot(rr) - q * rr.z;
+        if den.abs() < 1e-12 {
+            return None;
+        }
+        let mut z = num / den;
+        // dz/dq of the quotient.
+        let dzdq = (self.t.z * den + rr.z * num) / (den * den);
+        if self.projector_distorted {
+            let (u, v) = ((i % self.width) as f64, (i / self.width) as f64);
+            z = self.calib.depth_on_stripe(u, v, abc.0, abc.1, abc.2, q)?;
+        }
+        (z.is_finite() && z > DEPTH_RANGE_MM.0 && z < DEPTH_RANGE_MM.1).then_some((z, dzdq))
+    }
+
+    /// The camera-frame point at depth `z` on pixel index `i`'s ray, mm.
+    pub fn point(&self, i: usize, z: f32) -> [f32; 3] {
+        let [x, y] = self.rays[i];
+        [x * z, y * z, z]
+    }
+
+    /// Depth of every pixel with a stripe coordinate (NaN elsewhere) into `depth`, and
+    /// its merge weight `1 / (dz/dq)²` into `weight`.
+    pub fn family_depth_into(&self, family: usize, q: &[f32], depth: &mut [f32], weight: &mut [f32]) {
+        for (i, ((&qi, d), wt)) in q.iter().zip(depth.iter_mut()).zip(weight.iter_mut()).enumerate() {
+            *d = f32::NAN;
+            *wt = 0.0;
+            if qi.is_nan() {
+                continue;
+            }
+            if let Some((z, dzdq)) = self.depth(family, i, qi as f64) {
+                *d = z as f32;
+                *wt = (1.0 / (dzdq * dzdq).max(1e-9)) as f32;
+            }
+        }
+    }
+}
