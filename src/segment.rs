@@ -208,6 +208,16 @@ impl Segmentation {
                     t < 0 || t >= len as isize || sc.strength[t as usize] <= b
                 };
                 if b >= MIN_EDGE_STRENGTH && b >= a && b > c && wider(-2) && wider(2) && b >= RELATIVE_EDGE_STRENGTH * local_max(&sc.strength, s, reach) {
+                    // Sub-pixel position from the linear-light gradient: camera blur
+                    // acts on linear light, so a blurred step's linear gradient peaks
+                    // at the step while its log gradient leans to the darker side.
+                    let lin = |t: usize| -> f32 {
+                        if t == 0 || t + 1 >= len {
+                            return 0.0;
+                        }
+                        (0..3).map(|ch| (0.5 * (sc.signal[ch][t + 1].exp() - sc.signal[ch][t - 1].exp())).powi(2)).sum()
+                    };
+                    let (a, b, c) = (lin(s - 1), lin(s), lin(s + 1));
                     let den = a - 2.0 * b + c;
                     let offset = if den < 0.0 { (0.5 * (a - c) / den).clamp(-0.5, 0.5) } else { 0.0 };
                     edges.push(Edge { pos: s as f32 + offset, code: NO_CODE, run: run_id, id: -1 });
