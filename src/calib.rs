@@ -32,6 +32,32 @@ pub struct Intrinsics {
     pub dist: [f64; 5],
 }
 
+/// An approximate rig described the way a person measures one with a tape and the
+/// devices' data sheets, for [`Calibration::from_approx_rig`]. Square pixels, the
+/// principal point at the image centre, no lens distortion.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ApproxRig {
+    /// Camera image width, pixels.
+    pub camera_width: u32,
+    /// Camera image height, pixels.
+    pub camera_height: u32,
+    /// Camera horizontal field of view, degrees (edge to edge of the image).
+    pub camera_hfov_deg: f64,
+    /// Projector width, pixels.
+    pub projector_width: u32,
+    /// Projector height, pixels.
+    pub projector_height: u32,
+    /// Projector horizontal field of view, degrees (a throw ratio r gives
+    /// `2·atan(1 / (2r))`).
+    pub projector_hfov_deg: f64,
+    /// The projector's centre of projection in camera coordinates (x right, y down,
+    /// z forward), mm.
+    pub baseline_mm: [f64; 3],
+    /// Distance along the camera's optical axis of the point both devices aim at, mm.
+    pub aim_distance_mm: f64,
+}
+
 /// A calibrated projector-camera pair.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -246,6 +272,64 @@ impl Calibration {
         Self::aimed(camera, projector, DVec3::new(half, half, 0.0), DVec3::new(0.0, 0.0, 750.0))
     }
 
+    /// A usable calibration from an approximate rig: focal lengths from the fields of
+    /// view (`f = (w / 2) / tan(hfov / 2)`, square pixels), principal points at the
+    /// image centres, the projector at `baseline_mm` and aimed at the point
+    /// `aim_distance_mm` along the camera's axis (see [`Calibration::aimed`]).
+    /// Errors name the offending field of [`ApproxRig`].
+    ///
+    /// ```
+    /// use stripelight::calib::{ApproxRig, Calibration};
+    /// let rig = ApproxRig {
+    ///     camera_width: 640, camera_height: 480, camera_hfov_deg: 60.0,
+    ///     projector_width: 1024, projector_height: 768, projector_hfov_deg: 40.0,
+    ///     baseline_mm: [150.0, 0.0, 0.0], aim_distance_mm: 800.0,
+    /// };
+    /// let calib = Calibration::from_approx_rig(&rig).unwrap();
+    /// assert!((calib.baseline_mm() - 150.0).abs() < 1e-9);
+    /// ```
+    pub fn from_approx_rig(rig: &ApproxRig) -> Result<Self> {
+        let err = |field: &str, problem: String| Error::Calib { field: field.into(), problem };
+        let device = |prefix: &str, width: u32, height: u32, hfov_deg: f64| -> Result<Intrinsics> {
+            if width == 0 || height == 0 {
+                return Err(err(&format!("{prefix}_width"), format!("size {width}x{height} is empty")));
+            }
+            // Below 1 degree or near 180 degrees the pinhole model says nothing useful.
+            if !(1.0..=170.0).contains(&hfov_deg) {
+                return Err(err(
+                    &format!("{prefix}_hfov_deg"),
+                    format!("must be between 1 and 170 degrees, got {hfov_deg}"),
+                ));
+            }
+            let f = (width as f64 / 2.0) / (hfov_deg.to_radians() / 2.0).tan();
+            Ok(Intrinsics {
+                width,
+                height,
+                fx: f,
+                fy: f,
+                cx: (width as f64 - 1.0) / 2.0,
+                cy: (height as f64 - 1.0) / 2.0,
+                dist: [0.0; 5],
+            })
+        };
+        let camera = device("camera", rig.camera_width, rig.camera_height, rig.camera_hfov_deg)?;
+        let projector = device("projector", rig.projector_width, rig.projector_height, rig.projector_hfov_deg)?;
+        let center = DVec3::from_array(rig.baseline_mm);
+        if !center.is_finite() || center.length() < 1.0 {
+            return Err(err("baseline_mm", format!("must be a finite vector of at least 1 mm, got {center}")));
+        }
+        if !rig.aim_distance_mm.is_finite() || rig.aim_distance_mm <= 0.0 {
+            return Err(err("aim_distance_mm", format!("must be a positive distance, got {}", rig.aim_distance_mm)));
+        }
+        let target = DVec3::new(0.0, 0.0, rig.aim_distance_mm);
+        if (target - center).length() < 1.0 {
+            return Err(err("aim_distance_mm", "puts the aim point at the projector itself".into()));
+        }
+        let calib = Self::aimed(camera, projector, center, target);
+        calib.validate()?;
+        Ok(calib)
+    }
+
     /// The demo rig with moderate lens distortion on both devices, for tests that the
     /// distortion model is applied everywhere.
     pub fn demo_distorted() -> Self {
@@ -332,6 +416,39 @@ mod tests {
         // The projector's optical axis passes through the target point.
         let target_p = c.cam_to_proj(DVec3::new(0.0, 0.0, 750.0));
         assert!(target_p.x.abs() < 1e-9 && target_p.y.abs() < 1e-9);
+    }
+
+    #[test]
+    fn approx_rig_reproduces_the_demo_rig() {
+        let demo = Calibration::demo();
+        let hfov = |i: &Intrinsics| 2.0 * (i.width as f64 / 2.0 / i.fx).atan().to_degrees();
+        let half = 200.0 / std::f64::consts::SQRT_2;
+        let rig = ApproxRig {
+            camera_width: 640,
+            camera_height: 480,
+            camera_hfov_deg: hfov(&demo.camera),
+            projector_width: 1024,
+            projector_height: 768,
+            projector_hfov_deg: hfov(&demo.projector),
+            baseline_mm: [half, half, 0.0],
+            aim_distance_mm: 750.0,
+        };
+        let c = Calibration::from_approx_rig(&rig).unwrap();
+        assert!((c.camera.fx - 760.0).abs() < 1e-9 && (c.projector.fy - 1150.0).abs() < 1e-9);
+        assert_eq!((c.camera.cx, c.projector.cy), (319.5, 383.5));
+        for (a, b) in c.rotation.iter().chain(&c.translation).zip(demo.rotation.iter().chain(&demo.translation)) {
+            assert!((a - b).abs() < 1e-9, "{a} vs {b}");
+        }
+        let bad = [
+            (ApproxRig { camera_hfov_deg: 0.0, ..rig.clone() }, "camera_hfov_deg"),
+            (ApproxRig { projector_width: 0, ..rig.clone() }, "projector_width"),
+            (ApproxRig { baseline_mm: [0.0; 3], ..rig.clone() }, "baseline_mm"),
+            (ApproxRig { aim_distance_mm: f64::NAN, ..rig.clone() }, "aim_distance_mm"),
+        ];
+        for (r, field) in bad {
+            let e = Calibration::from_approx_rig(&r).unwrap_err().to_string();
+            assert!(e.contains(field), "{e}");
+        }
     }
 
     #[test]

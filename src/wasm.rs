@@ -1,0 +1,463 @@
+//! The one thin boundary between the browser and the pipeline.
+//!
+//! Everything here converts: JSON text and typed arrays in, typed arrays and JSON text
+//! out, and [`crate::Error`] into a JS `Error` whose message is the error's one-line
+//! `Display`. No pipeline logic lives here and no core type carries a wasm attribute.
+//! The page's web worker (`www/worker.js`) is the only caller; its message protocol is
+//! documented there.
+//!
+//! Images cross the boundary as interleaved RGBA bytes (what a canvas `ImageData`
+//! holds); clouds as parallel flat arrays, one entry per point: positions `x, y, z`
+//! (mm, camera frame), colours `r, g, b`, camera pixels `u, v` and family bit masks.
+
+use crate::calib::{ApproxRig, Calibration};
+use crate::cloud::{encode_ply, CloudPoint};
+use crate::error::Error;
+use crate::io;
+use crate::pattern::{PatternSpec, DEFAULT_STRIPE_WIDTH};
+use crate::raster::Image;
+use crate::scan::{FilterMode, ScanConfig, ScanResult, Scanner, IDENTITY_CROSSTALK};
+use crate::sim;
+use js_sys::{Float32Array, Uint8Array};
+use wasm_bindgen::prelude::*;
+
+/// Runs once when the module is instantiated: panics are printed to the console with
+/// their message and location before they surface as a `RuntimeError`.
+#[wasm_bindgen(start)]
+fn start() {
+    console_error_panic_hook::set_once();
+}
+
+fn js_error(e: Error) -> JsError {
+    JsError::new(&e.to_string())
+}
+
+fn parse_filter(name: &str) -> Result<FilterMode, JsError> {
+    name.parse().map_err(js_error)
+}
+
+fn to_rgba(img: &Image<[u8; 3]>) -> Vec<u8> {
+    let mut out = Vec::with_capacity(img.pixels().len() * 4);
+    for p in img.pixels() {
+        out.extend_from_slice(&[p[0], p[1], p[2], 255]);
+    }
+    out
+}
+
+/// An 8-bit RGBA image (row-major, 4 bytes a pixel, alpha 255).
+#[wasm_bindgen(js_name = RgbaImage)]
+pub struct RgbaImage {
+    width: u32,
+    height: u32,
+    data: Vec<u8>,
+}
+
+impl RgbaImage {
+    fn from_rgb(img: &Image<[u8; 3]>) -> Self {
+        RgbaImage { width: img.width() as u32, height: img.height() as u32, data: to_rgba(img) }
+    }
+}
+
+#[wasm_bindgen(js_class = RgbaImage)]
+impl RgbaImage {
+    /// Width in pixels.
+    #[wasm_bindgen(getter)]
+    pub fn width(&self) -> u32 {
+        self.width
+    }
+
+    /// Height in pixels.
+    #[wasm_bindgen(getter)]
+    pub fn height(&self) -> u32 {
+        self.height
+    }
+
+    /// The pixels, copied into a new JS array (transferable).
+    pub fn rgba(&self) -> Uint8Array {
+        Uint8Array::from(&self.data[..])
+    }
+}
+
+/// The spec JSON of a new pattern with `directions` stripe families (1, 2 or 3) for a
+/// `width` x `height` projector, with the default stripe width.
+#[wasm_bindgen(js_name = generatePattern)]
+pub fn generate_pattern(directions: u32, width: u32, height: u32) -> Result<String, JsError> {
+    let spec = PatternSpec::generate(directions as usize, width, height, DEFAULT_STRIPE_WIDTH).map_err(js_error)?;
+    Ok(spec.to_json())
+}
+
+/// Validate a pattern spec; returns it re-serialized (canonical form).
+#[wasm_bindgen(js_name = parseSpec)]
+pub fn parse_spec(spec_json: &str) -> Result<String, JsError> {
+    Ok(PatternSpec::from_json(spec_json).map_err(js_error)?.to_json())
+}
+
+/// The pixels the projector shows for a spec, at the spec's resolution.
+#[wasm_bindgen(js_name = renderPattern)]
+pub fn render_pattern(spec_json: &str) -> Result<RgbaImage, JsError> {
+    let spec = PatternSpec::from_json(spec_json).map_err(js_error)?;
+    Ok(RgbaImage::from_rgb(&spec.render_rgb8()))
+}
+
+/// The calibration JSON of the default demo rig (VGA camera, XGA projector, 200 mm
+/// diagonal baseline, aimed at 750 mm).
+#[wasm_bindgen(js_name = defaultCalibration)]
+pub fn default_calibration() -> String {
+    Calibration::demo().to_json()
+}
+
+/// Validate a calibration file; returns it re-serialized. Errors name the field.
+#[wasm_bindgen(js_name = parseCalibration)]
+pub fn parse_calibration(calib_json: &str) -> Result<String, JsError> {
+    Ok(Calibration::from_json(calib_json).map_err(js_error)?.to_json())
+}
+
+/// A usable calibration JSON from an approximate rig, given as JSON with the fields of
+/// `ApproxRig`: `camera_width`, `camera_height`, `camera_hfov_deg`, `projector_width`,
+/// `projector_height`, `projector_hfov_deg`, `baseline_mm` (`[x, y, z]`, the
+/// projector's centre in camera coordinates) and `aim_distance_mm`.
+#[wasm_bindgen(js_name = calibrationFromRig)]
+pub fn calibration_from_rig(rig_json: &str) -> Result<String, JsError> {
+    let de = &mut serde_json::Deserializer::from_str(rig_json);
+    let rig: ApproxRig = serde_path_to_error::deserialize(de).map_err(|e| {
+        let path = e.path().to_string();
+        let field = if path == "." { "(rig)".to_string() } else { path };
+        js_error(Error::Calib { field, problem: e.into_inner().to_string() })
+    })?;
+    Ok(Calibration::from_approx_rig(&rig).map_err(js_error)?.to_json())
+}
+
+/// Names of the simulator's built-in scenes.
+#[wasm_bindgen(js_name = sceneNames)]
+pub fn scene_names() -> Vec<String> {
+    sim::Scene::NAMES.iter().map(|s| s.to_string()).collect()
+}
+
+/// The camera frame the simulator renders for a built-in scene lit by the spec's
+/// pattern on the calibrated rig (camera-sized RGBA).
+#[wasm_bindgen(js_name = renderScene)]
+pub fn render_scene(name: &str, spec_json: &str, calib_json: &str, seed: u32) -> Result<RgbaImage, JsError> {
+    let spec = PatternSpec::from_json(spec_json).map_err(js_error)?;
+    let calib = Calibration::from_json(calib_json).map_err(js_error)?;
+    let scene = sim::Scene::builtin(name).map_err(js_error)?;
+    let config = sim::SimConfig {
+        seed: seed as u64,
+        projector_gamma: spec.encoding_gamma as f32,
+        ..Default::default()
+    };
+    let frame = sim::render(&scene, &calib, &spec.render_rgb8(), &config).map_err(js_error)?;
+    Ok(RgbaImage::from_rgb(&frame.image))
+}
+
+/// The colour mixing of the simulator's camera (9 numbers, row-major): scanning its
+/// frames with it is what a measured colour calibration of a real rig gives.
+#[wasm_bindgen(js_name = simulatorCrosstalk)]
+pub fn simulator_crosstalk() -> Vec<f32> {
+    sim::SimConfig::default().crosstalk.iter().flatten().copied().collect()
+}
+
+/// Decode PNG or JPEG bytes to RGBA (no colour management: the values as stored).
+#[wasm_bindgen(js_name = decodeImage)]
+pub fn decode_image(bytes: &[u8]) -> Result<RgbaImage, JsError> {
+    Ok(RgbaImage::from_rgb(&io::decode_rgb8(bytes).map_err(js_error)?))
+}
+
+/// A cloud as parallel flat arrays (see the module docs).
+#[derive(Default)]
+struct FlatCloud {
+    positions: Vec<f32>,
+    colors: Vec<u8>,
+    pixels: Vec<f32>,
+    families: Vec<u8>,
+}
+
+impl FlatCloud {
+    fn from_points(points: &[CloudPoint]) -> Self {
+        let n = points.len();
+        let mut c = FlatCloud {
+            positions: Vec::with_capacity(3 * n),
+            colors: Vec::with_capacity(3 * n),
+            pixels: Vec::with_capacity(2 * n),
+            families: Vec::with_capacity(n),
+        };
+        for p in points {
+            c.positions.extend_from_slice(&p.position);
+            c.colors.extend_from_slice(&p.color);
+            c.pixels.extend_from_slice(&p.pixel);
+            c.families.push(p.families);
+        }
+        c
+    }
+}
+
+/// What one scan produced, copied out of the scanner so that the scanner can take the
+/// next frame. Every array accessor returns a fresh JS array the worker can transfer.
+#[wasm_bindgen(js_name = ScanOutput)]
+pub struct ScanOutput {
+    merged: FlatCloud,
+    family_clouds: Vec<FlatCloud>,
+    depth: Vec<f32>,
+    width: u32,
+    height: u32,
+    stats_json: String,
+}
+
+impl ScanOutput {
+    fn from_result(r: &ScanResult) -> Self {
+        ScanOutput {
+            merged: FlatCloud::from_points(&r.points),
+            family_clouds: r.family_points.iter().map(|p| FlatCloud::from_points(p)).collect(),
+            depth: r.depth.pixels().to_vec(),
+            width: r.depth.width() as u32,
+            height: r.depth.height() as u32,
+            // Plain numbers and strings always serialize.
+            stats_json: serde_json::to_string(&r.stats).unwrap_or_default(),
+        }
+    }
+
+    fn family(&self, k: u32) -> Result<&FlatCloud, JsError> {
+        self.family_clouds.get(k as usize).ok_or_else(|| {
+            JsError::new(&format!("family {k} does not exist (the pattern has {})", self.family_clouds.len()))
+        })
+    }
+}
+
+#[wasm_bindgen(js_class = ScanOutput)]
+impl ScanOutput {
+    /// Points in the merged cloud.
+    #[wasm_bindgen(getter, js_name = pointCount)]
+    pub fn point_count(&self) -> u32 {
+        self.merged.families.len() as u32
+    }
+
+    /// Merged cloud positions, `x, y, z` per point, mm, camera frame.
+    pub fn positions(&self) -> Float32Array {
+        Float32Array::from(&self.merged.positions[..])
+    }
+
+    /// Merged cloud colours, `r, g, b` per point, as captured.
+    pub fn colors(&self) -> Uint8Array {
+        Uint8Array::from(&self.merged.colors[..])
+    }
+
+    /// Merged cloud camera pixels, `u, v` per point.
+    pub fn pixels(&self) -> Float32Array {
+        Float32Array::from(&self.merged.pixels[..])
+    }
+
+    /// Merged cloud family bit masks, one per point.
+    pub fn families(&self) -> Uint8Array {
+        Uint8Array::from(&self.merged.families[..])
+    }
+
+    /// Number of stripe families (each has its own cloud).
+    #[wasm_bindgen(getter, js_name = familyCount)]
+    pub fn family_count(&self) -> u32 {
+        self.family_clouds.len() as u32
+    }
+
+    /// Family `k`'s cloud positions.
+    #[wasm_bindgen(js_name = familyPositions)]
+    pub fn family_positions(&self, k: u32) -> Result<Float32Array, JsError> {
+        Ok(Float32Array::from(&self.family(k)?.positions[..]))
+    }
+
+    /// Family `k`'s cloud colours.
+    #[wasm_bindgen(js_name = familyColors)]
+    pub fn family_colors(&self, k: u32) -> Result<Uint8Array, JsError> {
+        Ok(Uint8Array::from(&self.family(k)?.colors[..]))
+    }
+
+    /// Family `k`'s cloud camera pixels.
+    #[wasm_bindgen(js_name = familyPixels)]
+    pub fn family_pixels(&self, k: u32) -> Result<Float32Array, JsError> {
+        Ok(Float32Array::from(&self.family(k)?.pixels[..]))
+    }
+
+    /// Merged depth map, Z in mm per camera pixel, row-major; NaN where none.
+    pub fn depth(&self) -> Float32Array {
+        Float32Array::from(&self.depth[..])
+    }
+
+    /// Depth map width (the camera's).
+    #[wasm_bindgen(getter)]
+    pub fn width(&self) -> u32 {
+        self.width
+    }
+
+    /// Depth map height (the camera's).
+    #[wasm_bindgen(getter)]
+    pub fn height(&self) -> u32 {
+        self.height
+    }
+
+    /// The scan's figures (`ScanStats`) as JSON.
+    #[wasm_bindgen(getter, js_name = statsJson)]
+    pub fn stats_json(&self) -> String {
+        self.stats_json.clone()
+    }
+}
+
+/// One intermediate image of the last scan, for the teaching view.
+#[wasm_bindgen(js_name = StageImage)]
+pub struct StageImage {
+    name: String,
+    caption: String,
+    image: RgbaImage,
+}
+
+#[wasm_bindgen(js_class = StageImage)]
+impl StageImage {
+    /// Short name, e.g. `restored-0`.
+    #[wasm_bindgen(getter)]
+    pub fn name(&self) -> String {
+        self.name.clone()
+    }
+
+    /// One sentence saying what the image shows.
+    #[wasm_bindgen(getter)]
+    pub fn caption(&self) -> String {
+        self.caption.clone()
+    }
+
+    /// Width in pixels.
+    #[wasm_bindgen(getter)]
+    pub fn width(&self) -> u32 {
+        self.image.width
+    }
+
+    /// Height in pixels.
+    #[wasm_bindgen(getter)]
+    pub fn height(&self) -> u32 {
+        self.image.height
+    }
+
+    /// The pixels as RGBA.
+    pub fn rgba(&self) -> Uint8Array {
+        self.image.rgba()
+    }
+}
+
+/// A long-lived scanner for one (pattern spec, calibration) pair; frames must have the
+/// calibration's camera size.
+#[wasm_bindgen(js_name = Scanner)]
+pub struct WasmScanner {
+    inner: Scanner,
+}
+
+#[wasm_bindgen(js_class = Scanner)]
+impl WasmScanner {
+    /// A scanner for a spec and calibration (JSON texts) with a filter
+    /// (`direct`, `loggrad` or `loggrad-norot`) and the camera's colour mixing
+    /// (`crosstalk`: 9 numbers, row-major, row = camera channel; `undefined` for none).
+    /// Errors say which input is wrong.
+    #[wasm_bindgen(constructor)]
+    pub fn new(
+        spec_json: &str,
+        calib_json: &str,
+        filter: &str,
+        crosstalk: Option<Vec<f32>>,
+    ) -> Result<WasmScanner, JsError> {
+        let spec = PatternSpec::from_json(spec_json).map_err(js_error)?;
+        let calib = Calibration::from_json(calib_json).map_err(js_error)?;
+        let crosstalk = match crosstalk {
+            None => IDENTITY_CROSSTALK,
+            Some(m) => {
+                let rows: [f32; 9] = m.as_slice().try_into().map_err(|_| {
+                    JsError::new(&format!("crosstalk must be 9 numbers (3x3, row-major), got {}", m.len()))
+                })?;
+                [[rows[0], rows[1], rows[2]], [rows[3], rows[4], rows[5]], [rows[6], rows[7], rows[8]]]
+            }
+        };
+        let config = ScanConfig { filter: parse_filter(filter)?, crosstalk, ..ScanConfig::default() };
+        Ok(WasmScanner { inner: Scanner::new(spec, calib, config).map_err(js_error)? })
+    }
+
+    /// Frame width the scanner takes (the calibration's camera width).
+    #[wasm_bindgen(getter)]
+    pub fn width(&self) -> u32 {
+        self.inner.size().0 as u32
+    }
+
+    /// Frame height the scanner takes.
+    #[wasm_bindgen(getter)]
+    pub fn height(&self) -> u32 {
+        self.inner.size().1 as u32
+    }
+
+    /// Change the filter for the following scans.
+    #[wasm_bindgen(js_name = setFilter)]
+    pub fn set_filter(&mut self, filter: &str) -> Result<(), JsError> {
+        self.inner.set_filter(parse_filter(filter)?);
+        Ok(())
+    }
+
+    /// Keep the intermediate images of the following scans for [`WasmScanner::stages`].
+    #[wasm_bindgen(js_name = setKeepStages)]
+    pub fn set_keep_stages(&mut self, keep: bool) {
+        self.inner.set_keep_stages(keep);
+    }
+
+    /// Scan one frame given as RGBA bytes (a canvas `ImageData`'s `data`).
+    pub fn scan(&mut self, rgba: &[u8], width: u32, height: u32) -> Result<ScanOutput, JsError> {
+        let result = self.inner.scan_rgba(width as usize, height as usize, rgba).map_err(js_error)?;
+        Ok(ScanOutput::from_result(result))
+    }
+
+    /// The intermediate images of the last scan (empty unless stages were kept).
+    pub fn stages(&self) -> Vec<StageImage> {
+        self.inner
+            .stages()
+            .into_iter()
+            .map(|s| StageImage { name: s.name, caption: s.caption, image: RgbaImage::from_rgb(&s.image) })
+            .collect()
+    }
+}
+
+/// Encode a cloud given as flat arrays (see the module docs) as PLY per
+/// `conventions.md`; binary little-endian unless `ascii`.
+#[wasm_bindgen(js_name = encodePly)]
+pub fn encode_ply_js(
+    positions: &[f32],
+    colors: &[u8],
+    pixels: &[f32],
+    families: &[u8],
+    ascii: bool,
+) -> Result<Vec<u8>, JsError> {
+    let n = families.len();
+    if positions.len() != 3 * n || colors.len() != 3 * n || pixels.len() != 2 * n {
+        return Err(JsError::new(&format!(
+            "cloud arrays disagree: {n} families, {} position, {} colour and {} pixel values \
+             (expected {}, {} and {})",
+            positions.len(),
+            colors.len(),
+            pixels.len(),
+            3 * n,
+            3 * n,
+            2 * n
+        )));
+    }
+    let points: Vec<CloudPoint> = (0..n)
+        .map(|i| CloudPoint {
+            position: [positions[3 * i], positions[3 * i + 1], positions[3 * i + 2]],
+            color: [colors[3 * i], colors[3 * i + 1], colors[3 * i + 2]],
+            pixel: [pixels[2 * i], pixels[2 * i + 1]],
+            families: families[i],
+        })
+        .collect();
+    Ok(encode_ply(&points, ascii))
+}
+
+/// Encode a depth map (row-major, Z in mm, NaN where none) as PFM per `conventions.md`.
+#[wasm_bindgen(js_name = encodePfm)]
+pub fn encode_pfm_js(depth: &[f32], width: u32, height: u32) -> Result<Vec<u8>, JsError> {
+    let img = Image::from_vec(width as usize, height as usize, depth.to_vec()).map_err(js_error)?;
+    Ok(io::encode_pfm(&img))
+}
+
+/// Panics on purpose, so that the page's recovery from a panicking worker can be
+/// tested end to end. Nothing else calls it.
+#[wasm_bindgen(js_name = panicForTest)]
+pub fn panic_for_test() {
+    panic!("deliberate panic requested by the page's self-test");
+}

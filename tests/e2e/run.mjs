@@ -1,0 +1,477 @@
+// End-to-end test of the scanner page in Debian's Chromium (playwright-core, no browser
+// download). Serves the repository with scripts/serve.py (the wasm package must be
+// built: scripts/build-web.sh), then checks:
+//   1. the built-in sample decodes on first open and the WebGL canvas shows it;
+//   2. a stored frame fed as the fake webcam (.y4m written here) decodes to about the
+//      point count the same frame gives when scanned directly; continuous scanning runs;
+//   3. dropped files: the stored PNG decodes to exactly that count; a text file and a
+//      wrong-size image give clear messages;
+//   4. a denied camera and a blocked projector pop-up give messages;
+//   5. screenshots of the viewer with a cloud and of the teaching view, in tests/screenshots/;
+//   6. the PLY and PFM exports follow conventions.md;
+//   7. the projector window shows the decoder's pattern pixel for pixel;
+//   8. a panic in a worker is reported and the page keeps working.
+// Prints one line per check and `N passed, M failed`; exits non-zero on failure.
+//
+//   node tests/e2e/run.mjs                   run the checks
+//   node tests/e2e/run.mjs --write-fixture   regenerate the stored frame with the simulator
+
+import { mkdirSync, readFileSync, rmSync, writeFileSync, mkdtempSync } from 'node:fs';
+import { tmpdir } from 'node:os';
+import { join } from 'node:path';
+import { ROOT, launch, openPage, startServer, withTimeout } from './harness.mjs';
+import { decodePng } from './png.mjs';
+import { BACKGROUND } from '../../www/viewer.js';
+import { decodeY4m, encodeY4m } from './y4m.mjs';
+
+/** The stored frame: the simulator's `textured` scene (surface colours that plain
+ * colour decoding gets wrong) lit by the page's default pattern (2 directions,
+ * 1024x768) on the demo rig, 640x480. */
+const FIXTURE = 'tests/e2e/fixtures/textured-2dir.png';
+const FIXTURE_SCENE = { name: 'textured', seed: 7 };
+const SCREENSHOTS = join(ROOT, 'tests/screenshots');
+/** The whole run, start to end, including Chromium's start-up. */
+const TOTAL_LIMIT_MS = 6 * 60_000;
+/** One check. */
+const CHECK_LIMIT_MS = 120_000;
+/**
+ * The fake webcam delivers the frame through 4:2:0 YCbCr, as real webcams do: chroma at
+ * half resolution in both directions (a 6.5-pixel stripe keeps about 3 chroma samples)
+ * and 8-bit limited-range quantization. That alone costs this textured frame about a sixth
+ * of its points (measured with the frame decoded back from the y4m here and scanned
+ * directly), so the webcam count is compared two ways:
+ * - with the directly scanned 4:2:0 round trip of the frame: Chromium's own YCbCr to RGB
+ *   differs from ours by under 0.2 levels on average, which moved the count by 0.3-0.7%
+ *   (decoders amplify tiny changes at stripe edges a little); 5% leaves room for another
+ *   Chromium's upsampling filter or a more edge-sensitive decoder and still catches a
+ *   frame that lost anything on the way (scaled, cropped, swapped channels);
+ * - with the stored frame itself: at most 30% fewer or more, the subsampling loss with
+ *   room for decoder changes (a blank or wrong frame loses far more).
+ */
+const ROUND_TRIP_TOLERANCE = 0.05;
+const STORED_TOLERANCE = 0.3;
+/** Mean absolute change (8-bit levels) the y4m round trip may make to the frame's pixels;
+ * chroma subsampling across stripe edges moves a few levels on average. */
+const MAX_MEAN_PIXEL_CHANGE = 12;
+/** A pixel of the viewer counts as drawn when a channel differs this much from the background. */
+const DRAWN_DELTA = 24;
+/** The viewer must show the cloud on at least this fraction of its pixels. */
+const MIN_DRAWN_FRACTION = 0.05;
+
+const results = [];
+let server = null;
+let browser = null;
+
+async function cleanup() {
+  await browser?.close().catch(() => {});
+  browser = null;
+  server?.stop();
+  server = null;
+}
+
+const watchdog = setTimeout(async () => {
+  console.log(`FAIL the end-to-end test took longer than ${TOTAL_LIMIT_MS / 1000} s in total`);
+  await cleanup();
+  process.exit(1);
+}, TOTAL_LIMIT_MS);
+for (const signal of ['SIGINT', 'SIGTERM']) {
+  process.on(signal, async () => {
+    await cleanup();
+    process.exit(130);
+  });
+}
+
+async function check(name, fn) {
+  const t0 = Date.now();
+  try {
+    const detail = await withTimeout(fn(), CHECK_LIMIT_MS, name);
+    results.push(true);
+    console.log(`ok   ${name}${detail ? ` (${detail})` : ''} [${((Date.now() - t0) / 1000).toFixed(1)} s]`);
+  } catch (e) {
+    results.push(false);
+    console.log(`FAIL ${name}: ${e.message.split('\n')[0]}`);
+  }
+}
+
+function assert(cond, message) {
+  if (!cond) throw new Error(message);
+}
+
+/** Wait for the built-in sample (or its failure) and return the page's point count. */
+async function waitForSample(page) {
+  await page.waitForFunction(() => document.body.dataset.sample, null, { timeout: 90_000 });
+  const outcome = await page.evaluate(() => document.body.dataset.sample);
+  assert(outcome === 'done', `the sample did not decode: ${await page.textContent('#messages')}`);
+  return Number(await page.getAttribute('#point-count', 'data-count'));
+}
+
+/** Fraction of the viewer canvas's pixels that differ from the background. */
+async function drawnFraction(page) {
+  const png = await page.locator('#viewer').screenshot();
+  const { width, height, rgba } = decodePng(png);
+  const bg = BACKGROUND.map((c) => Math.round(255 * c));
+  let drawn = 0;
+  for (let i = 0; i < width * height; i++) {
+    const d = Math.max(Math.abs(rgba[4 * i] - bg[0]), Math.abs(rgba[4 * i + 1] - bg[1]), Math.abs(rgba[4 * i + 2] - bg[2]));
+    if (d > DRAWN_DELTA) drawn++;
+  }
+  return drawn / (width * height);
+}
+
+/** Wait until the frame list has an entry whose title starts with `prefix` and is decoded or failed. */
+async function waitForFrame(page, prefix) {
+  await page.waitForFunction(
+    (p) =>
+      window.stripelight.state.frames.some((f) => f.name.startsWith(p) && (f.result || f.error)),
+    prefix,
+    { timeout: 60_000 },
+  );
+  return page.evaluate((p) => {
+    const f = window.stripelight.state.frames.find((e) => e.name.startsWith(p));
+    return { error: f.error, count: f.result ? f.result.merged.families.length : null, current: window.stripelight.state.current === f };
+  }, prefix);
+}
+
+async function waitForMessage(page, text) {
+  await page.waitForFunction((t) => document.getElementById('messages').textContent.includes(t), text, { timeout: 30_000 });
+  return page.evaluate((t) => [...document.querySelectorAll('#messages .message')].find((m) => m.textContent.includes(t)).textContent, text);
+}
+
+/** Scan the stored frame through the worker API directly (no camera, no drop). */
+function scanFixtureDirectly(page) {
+  return page.evaluate(async (path) => {
+    const { bridge, state } = window.stripelight;
+    const bytes = await (await fetch(`/${path}`)).arrayBuffer();
+    const frame = await bridge.request('decodeImage', { bytes });
+    const r = await bridge.request('scan', {
+      specJson: state.specJson, calibJson: state.calibJson, filter: 'loggrad',
+      width: frame.width, height: frame.height, rgba: frame.rgba, stages: false,
+    });
+    return r.merged.families.length;
+  }, FIXTURE);
+}
+
+/** Scan RGBA pixels (from node) through the worker API directly. */
+function scanPixelsDirectly(page, { width, height, rgba }) {
+  return page.evaluate(async ({ width, height, base64 }) => {
+    const { bridge, state } = window.stripelight;
+    const rgba = Uint8Array.from(atob(base64), (c) => c.charCodeAt(0));
+    const r = await bridge.request('scan', {
+      specJson: state.specJson, calibJson: state.calibJson, filter: 'loggrad', width, height, rgba, stages: false,
+    });
+    return r.merged.families.length;
+  }, { width, height, base64: Buffer.from(rgba).toString('base64') });
+}
+
+/**
+ * Drop files on the page's drop zone, several at once. Each: {name, type} and one of
+ * `url` (fetched), `text`, `stateText` (a field of the page's state, e.g. its calibration)
+ * or `png: {width, height}` (a grey image made in the page).
+ */
+function dropFiles(page, files) {
+  return page.evaluate(async (specs) => {
+    const dt = new DataTransfer();
+    for (const s of specs) {
+      let body;
+      if (s.url) body = await (await fetch(s.url)).blob();
+      else if (s.text) body = new Blob([s.text]);
+      else if (s.stateText) body = new Blob([window.stripelight.state[s.stateText]]);
+      else {
+        const c = new OffscreenCanvas(s.png.width, s.png.height);
+        const ctx = c.getContext('2d');
+        ctx.fillStyle = '#808080';
+        ctx.fillRect(0, 0, s.png.width, s.png.height);
+        body = await c.convertToBlob({ type: 'image/png' });
+      }
+      dt.items.add(new File([body], s.name, { type: s.type }));
+    }
+    const zone = document.getElementById('drop-zone');
+    for (const type of ['dragenter', 'dragover', 'drop']) {
+      zone.dispatchEvent(new DragEvent(type, { bubbles: true, cancelable: true, dataTransfer: dt }));
+    }
+  }, files);
+}
+
+async function writeFixture() {
+  server = await startServer();
+  browser = await launch();
+  const { page } = await openPage(browser, server.url);
+  await waitForSample(page);
+  const png = await page.evaluate(async ({ name, seed }) => {
+    const { bridge, state } = window.stripelight;
+    const f = await bridge.request('renderScene', { name, seed, specJson: state.specJson, calibJson: state.calibJson });
+    const c = new OffscreenCanvas(f.width, f.height);
+    c.getContext('2d').putImageData(new ImageData(new Uint8ClampedArray(f.rgba.buffer), f.width, f.height), 0, 0);
+    const blob = await c.convertToBlob({ type: 'image/png' });
+    return [...new Uint8Array(await blob.arrayBuffer())];
+  }, FIXTURE_SCENE);
+  mkdirSync(join(ROOT, 'tests/e2e/fixtures'), { recursive: true });
+  writeFileSync(join(ROOT, FIXTURE), Buffer.from(png));
+  console.log(`wrote ${FIXTURE} (${png.length} bytes)`);
+}
+
+async function main() {
+  const fixture = decodePng(readFileSync(join(ROOT, FIXTURE)));
+  const scratch = mkdtempSync(join(tmpdir(), 'stripelight-e2e-'));
+  const y4m = join(scratch, 'camera.y4m');
+  const y4mBytes = encodeY4m(fixture);
+  writeFileSync(y4m, y4mBytes);
+  const roundTrip = decodeY4m(y4mBytes);
+  mkdirSync(SCREENSHOTS, { recursive: true });
+
+  server = await startServer();
+  browser = await launch([
+    '--use-fake-device-for-media-stream',
+    `--use-file-for-fake-video-capture=${y4m}`,
+    '--autoplay-policy=no-user-gesture-required',
+  ]);
+
+  const main = await openPage(browser, server.url);
+  const { page, context } = main;
+  let direct = null;
+
+  await check('1 built-in sample decodes and the viewer draws it', async () => {
+    const count = await waitForSample(page);
+    const pixels = 640 * 480;
+    assert(count > pixels / 10 && count <= pixels, `implausible point count ${count} for a ${pixels}-pixel frame`);
+    await page.waitForTimeout(300); // one animation frame for the viewer
+    const drawn = await drawnFraction(page);
+    assert(drawn >= MIN_DRAWN_FRACTION, `the viewer looks blank: ${(100 * drawn).toFixed(2)}% of pixels drawn`);
+    return `${count} points, ${(100 * drawn).toFixed(0)}% of the viewer drawn`;
+  });
+
+  await check('2 webcam frame decodes to about the direct count', async () => {
+    direct = await scanFixtureDirectly(page);
+    assert(direct > 1000, `the stored frame gives only ${direct} points when scanned directly`);
+    await context.grantPermissions(['camera'], { origin: server.base });
+    await page.click('#camera-start');
+    await page.waitForSelector('#capture:not([disabled])', { timeout: 30_000 });
+    await page.click('#capture');
+    const got = await waitForFrame(page, 'camera ');
+    assert(!got.error, `capture failed: ${got.error}`);
+    const shown = Number(await page.getAttribute('#point-count', 'data-count'));
+    assert(got.current && shown === got.count, `the page shows ${shown} points, the capture gave ${got.count}`);
+    // How far the camera path moved the pixels (the y4m round trip): reported, and a
+    // gross failure (another frame, swapped channels, a scaled image) caught.
+    const diff = await page.evaluate(async (path) => {
+      const { bridge, state } = window.stripelight;
+      const bytes = await (await fetch(`/${path}`)).arrayBuffer();
+      const ref = (await bridge.request('decodeImage', { bytes })).rgba;
+      const cur = state.current.frame.rgba;
+      let sum = 0;
+      for (let i = 0; i < ref.length; i += 4) {
+        sum += Math.abs(ref[i] - cur[i]) + Math.abs(ref[i + 1] - cur[i + 1]) + Math.abs(ref[i + 2] - cur[i + 2]);
+      }
+      return sum / ((ref.length / 4) * 3);
+    }, FIXTURE);
+    assert(diff < MAX_MEAN_PIXEL_CHANGE, `the webcam frame differs from the stored one by ${diff.toFixed(1)} levels on average`);
+    const expected = await scanPixelsDirectly(page, roundTrip);
+    const relTrip = Math.abs(got.count - expected) / expected;
+    const relStored = Math.abs(got.count - direct) / direct;
+    assert(relTrip <= ROUND_TRIP_TOLERANCE,
+      `webcam frame gave ${got.count} points, its 4:2:0 round trip scanned directly ${expected} ` +
+      `(${(100 * relTrip).toFixed(1)}% apart, at most ${100 * ROUND_TRIP_TOLERANCE}% allowed)`);
+    assert(relStored <= STORED_TOLERANCE,
+      `webcam frame gave ${got.count} points, the stored frame ${direct} ` +
+      `(${(100 * relStored).toFixed(1)}% apart, at most ${100 * STORED_TOLERANCE}% allowed)`);
+    // Continuous scanning: frames keep coming back from the two workers.
+    await page.check('#continuous');
+    await page.waitForFunction(() => /scanning continuously: [\d.]+ frames\/s/.test(document.getElementById('status').textContent) &&
+      window.stripelight.state.frames.filter((f) => f.kind === 'live').length === 1, null, { timeout: 30_000 });
+    await page.waitForTimeout(1500);
+    const live = await page.textContent('#status');
+    const fps = Number(/([\d.]+) frames\/s/.exec(live)[1]);
+    await page.uncheck('#continuous');
+    assert(fps > 0, `continuous scanning reports ${fps} frames/s`);
+    await page.click('#camera-stop');
+    return `continuous ${fps} frames/s; ${got.count} points; 4:2:0 round trip ${expected} (${(100 * relTrip).toFixed(1)}% apart), stored frame ${direct} (${(100 * relStored).toFixed(1)}% apart); pixels moved ${diff.toFixed(1)} levels on average`;
+  });
+
+  await check('3 dropped files decode or give clear messages', async () => {
+    assert(direct !== null, 'needs the direct count of check 2');
+    // Two frames with the calibration and pattern spec they were taken with, in one drop.
+    await dropFiles(page, [
+      { name: 'stored-frame-copy.png', type: 'image/png', url: `/${FIXTURE}` },
+      { name: 'rig-calibration.json', type: 'application/json', stateText: 'calibJson' },
+      { name: 'stored-frame.png', type: 'image/png', url: `/${FIXTURE}` },
+      { name: 'pattern-spec.json', type: 'application/json', stateText: 'specJson' },
+    ]);
+    const copy = await waitForFrame(page, 'stored-frame-copy.png');
+    const got = await waitForFrame(page, 'stored-frame.png');
+    assert(!got.error && !copy.error, `a dropped PNG failed: ${got.error || copy.error}`);
+    assert(got.count === direct && copy.count === direct,
+      `the dropped PNGs gave ${got.count} and ${copy.count} points, scanning the frame directly ${direct}`);
+    await waitForMessage(page, 'Calibration rig-calibration.json loaded');
+    await waitForMessage(page, 'Pattern spec pattern-spec.json loaded');
+    const shown = Number(await page.getAttribute('#point-count', 'data-count'));
+    assert(shown === direct, `the page shows ${shown} points after the drop, expected ${direct}`);
+    await dropFiles(page, [{ name: 'notes.txt', type: 'text/plain', text: 'these are not pixels' }]);
+    const notImage = await waitForMessage(page, 'notes.txt');
+    assert(/not a readable image/.test(notImage), `unclear message for a text file: ${notImage}`);
+    await dropFiles(page, [{ name: 'small.png', type: 'image/png', png: { width: 320, height: 240 } }]);
+    const small = await waitForMessage(page, 'small.png');
+    assert(/320x240/.test(small) && /640x480/.test(small), `unclear message for a wrong-size image: ${small}`);
+    await dropFiles(page, [{ name: 'broken.json', type: 'application/json', text: '{"camera": {"width": 0}}' }]);
+    const broken = await waitForMessage(page, 'broken.json');
+    assert(/calibration/.test(broken), `unclear message for a broken calibration: ${broken}`);
+    return `${got.count} points from each PNG; messages: "${notImage.replace('×', '').trim()}"`;
+  });
+
+  await check('4 a denied camera and a blocked pop-up give messages', async () => {
+    const denied = await openPage(browser, server.url, {
+      // What the browser does when the user (or a policy) refuses the camera, and when
+      // its pop-up blocker stops the projector window.
+      initScript: () => {
+        navigator.mediaDevices.getUserMedia = () =>
+          Promise.reject(new DOMException('Permission denied', 'NotAllowedError'));
+        window.open = () => null;
+      },
+    });
+    try {
+      await waitForSample(denied.page);
+      await denied.page.click('#camera-start');
+      const text = await waitForMessage(denied.page, 'Camera access was denied');
+      const info = await denied.page.textContent('#camera-info');
+      assert(/denied/.test(info), `the camera panel does not say so: ${info}`);
+      await denied.page.click('#open-projector');
+      const blocked = await waitForMessage(denied.page, 'blocked the projector window');
+      return `${text.replace('×', '').trim().slice(0, 40)}… / ${blocked.replace('×', '').trim().slice(0, 40)}…`;
+    } finally {
+      await denied.context.close();
+    }
+  });
+
+  await check('5 screenshots of the viewer and the teaching view', async () => {
+    // Show the textured frame's cloud from an angle, coloured by family, with stages.
+    await page.evaluate(() => {
+      const s = window.stripelight.state;
+      const entry = s.frames.find((f) => f.name === 'stored-frame.png');
+      entry.item.click();
+    });
+    await page.waitForFunction(
+      () => document.getElementById('stages-note').textContent.includes('stored-frame.png') &&
+        document.querySelectorAll('#stages canvas').length >= 4,
+      null, { timeout: 30_000 });
+    // Clear the messages of check 3 so they do not cover the pictures.
+    await page.evaluate(() => document.querySelectorAll('#messages .message').forEach((m) => m.remove()));
+    const viewer = page.locator('#viewer');
+    await viewer.scrollIntoViewIfNeeded();
+    const yawBefore = await page.evaluate(() => window.stripelight.viewer.view.yaw);
+    const box = await viewer.boundingBox();
+    await page.mouse.move(box.x + box.width / 2, box.y + box.height / 2);
+    await page.mouse.down();
+    await page.mouse.move(box.x + box.width / 2 + 140, box.y + box.height / 2 + 50, { steps: 5 });
+    await page.mouse.up();
+    const yawAfter = await page.evaluate(() => window.stripelight.viewer.view.yaw);
+    assert(Math.abs(yawAfter - yawBefore) > 0.5, `dragging did not orbit the view (yaw ${yawBefore} -> ${yawAfter})`);
+    await page.waitForTimeout(300);
+    const drawn = await drawnFraction(page);
+    assert(drawn >= MIN_DRAWN_FRACTION, `the rotated view looks blank (${(100 * drawn).toFixed(2)}% drawn)`);
+    await page.locator('.results').screenshot({ path: join(SCREENSHOTS, 'viewer.png') });
+    await page.check('input[name="color-mode"][value="family"]', { force: true });
+    await page.waitForTimeout(300);
+    await viewer.screenshot({ path: join(SCREENSHOTS, 'viewer-families.png') });
+    await page.locator('#teaching').screenshot({ path: join(SCREENSHOTS, 'teaching.png') });
+    await page.screenshot({ path: join(SCREENSHOTS, 'page.png'), fullPage: true });
+    const stages = await page.locator('#stages figure').count();
+    return `${stages} stages; tests/screenshots/{viewer,viewer-families,teaching,page}.png`;
+  });
+
+  await check('6 PLY and PFM exports follow the conventions', async () => {
+    const count = Number(await page.getAttribute('#point-count', 'data-count'));
+    const [ply] = await Promise.all([page.waitForEvent('download'), page.click('#export-ply')]);
+    const plyBytes = readFileSync(await ply.path());
+    const header = plyBytes.subarray(0, plyBytes.indexOf('end_header\n') + 11).toString('latin1');
+    assert(header.startsWith('ply\nformat binary_little_endian 1.0\n'), `PLY header: ${header.slice(0, 60)}`);
+    assert(header.includes(`element vertex ${count}\n`), `the PLY does not hold the ${count} points shown`);
+    for (const prop of ['float x', 'float y', 'float z', 'uchar red', 'uchar green', 'uchar blue', 'float u', 'float v']) {
+      assert(header.includes(`property ${prop}\n`), `the PLY lacks ${prop}`);
+    }
+    const body = plyBytes.length - header.length;
+    assert(body % count === 0 && body / count >= 23, `PLY body of ${body} bytes for ${count} points`);
+    const z = plyBytes.readFloatLE(header.length + 8);
+    assert(z > 100 && z < 5000, `the first point's z is ${z} mm`);
+    const [pfm] = await Promise.all([page.waitForEvent('download'), page.click('#export-pfm')]);
+    const pfmBytes = readFileSync(await pfm.path());
+    assert(pfmBytes.subarray(0, 14).toString('latin1') === 'Pf\n640 480\n-1.0\n'.slice(0, 14), 'PFM header');
+    assert(pfmBytes.length === 'Pf\n640 480\n-1.0\n'.length + 640 * 480 * 4, `PFM of ${pfmBytes.length} bytes`);
+    return `${ply.suggestedFilename()} (${plyBytes.length} bytes), ${pfm.suggestedFilename()} (${pfmBytes.length} bytes)`;
+  });
+
+  await check('7 the projector window shows the decoder\'s pattern 1:1', async () => {
+    // Back to a generated pattern on the demo rig (check 3 loaded both from files), so
+    // that the rig may follow the projector screen's size.
+    await page.selectOption('#directions', '2');
+    await page.click('#calib-demo');
+    await page.waitForFunction(() => {
+      const s = window.stripelight.state;
+      return s.specSource === 'generated' && s.calibSource === 'demo';
+    }, null, { timeout: 30_000 });
+    const [popup] = await Promise.all([page.waitForEvent('popup'), page.click('#open-projector')]);
+    await popup.waitForLoadState('load');
+    const screenSize = await popup.evaluate(() => [Math.round(screen.width * devicePixelRatio), Math.round(screen.height * devicePixelRatio)]);
+    // The demo rig follows the projector screen's native size, and the pattern with it.
+    await page.waitForFunction(([w, h]) => {
+      const s = window.stripelight.state;
+      return s.spec.width === w && s.spec.height === h && s.calib.projector.width === w && s.patternPixels?.width === w;
+    }, screenSize, { timeout: 30_000 });
+    await popup.waitForFunction((w) => document.getElementById('pattern').width === w, screenSize[0], { timeout: 30_000 });
+    const shown = await popup.evaluate(() => {
+      const c = document.getElementById('pattern');
+      const d = c.getContext('2d').getImageData(0, 0, c.width, c.height).data;
+      let hash = 0;
+      for (let i = 0; i < d.length; i += 4) hash = (hash * 31 + d[i] * 65536 + d[i + 1] * 256 + d[i + 2]) >>> 0;
+      return { width: c.width, height: c.height, css: parseFloat(c.style.width), dpr: devicePixelRatio, hash };
+    });
+    const sent = await page.evaluate(() => {
+      const p = window.stripelight.state.patternPixels;
+      let hash = 0;
+      for (let i = 0; i < p.rgba.length; i += 4) hash = (hash * 31 + p.rgba[i] * 65536 + p.rgba[i + 1] * 256 + p.rgba[i + 2]) >>> 0;
+      return { width: p.width, height: p.height, hash };
+    });
+    assert(shown.width === sent.width && shown.height === sent.height, `the window shows ${shown.width}x${shown.height}, the decoder's pattern is ${sent.width}x${sent.height}`);
+    assert(Math.abs(shown.css * shown.dpr - shown.width) < 0.5, `canvas ${shown.width} device pixels drawn over ${shown.css} CSS pixels at ratio ${shown.dpr}`);
+    assert(shown.hash === sent.hash, 'the pixels in the projector window differ from the pattern the decoder uses');
+    await popup.screenshot({ path: join(SCREENSHOTS, 'projector.png') });
+    await popup.close();
+    return `${shown.width}x${shown.height} at devicePixelRatio ${shown.dpr}, pixels identical`;
+  });
+
+  await check('8 a worker panic is reported and the page keeps working', async () => {
+    const error = await page.evaluate(() =>
+      window.stripelight.bridge.request('panicForTest').then(() => 'no error', (e) => e.message),
+    );
+    assert(/crashed/.test(error), `the panic came back as: ${error}`);
+    await waitForMessage(page, 'crashed');
+    const before = await page.evaluate(() => window.stripelight.state.frames.length);
+    await page.selectOption('#scene', 'plane');
+    await page.click('#render-scene');
+    await page.waitForFunction((n) => window.stripelight.state.frames.length > n && window.stripelight.state.frames[0].result, before, {
+      timeout: 60_000,
+    });
+    const count = Number(await page.getAttribute('#point-count', 'data-count'));
+    assert(count > 1000, `after the restart a sample gave ${count} points`);
+    return `"${error}"; afterwards ${count} points`;
+  });
+
+  // The GPU notes are SwiftShader's; the panic is check 6's own.
+  const pageProblems = main.problems.filter((p) => !/GPU stall|GL Driver Message|deliberate panic/.test(p));
+  if (pageProblems.length) console.log(`note: the page logged ${pageProblems.length} problem(s): ${pageProblems.slice(0, 3).join(' | ')}`);
+  rmSync(scratch, { recursive: true, force: true });
+}
+
+const writing = process.argv.includes('--write-fixture');
+try {
+  await (writing ? writeFixture() : main());
+} catch (e) {
+  console.log(`FAIL the end-to-end test could not run: ${e.message}`);
+  results.push(false);
+} finally {
+  await cleanup();
+  clearTimeout(watchdog);
+}
+if (!writing) {
+  const passed = results.filter(Boolean).length;
+  console.log(`${passed} passed, ${results.length - passed} failed`);
+}
+process.exit(results.every(Boolean) ? 0 : 1);

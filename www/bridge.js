@@ -1,0 +1,138 @@
+// The page's one way to talk to the decoding workers (protocol: worker.js).
+//
+// `request(type, payload, transfer)` returns a promise for the worker's reply. Requests
+// go to the worker with the fewest outstanding requests, so with two workers two frames
+// decode at once (the target machine has two cores). A worker that crashes (a Rust
+// panic, or an uncaught error) fails its outstanding requests with the reason and is
+// replaced by a fresh one; the page keeps working.
+
+/** A worker that fails this many times within RESTART_WINDOW_MS is not restarted again. */
+const MAX_RESTARTS = 5;
+const RESTART_WINDOW_MS = 60_000;
+
+export class WorkerBridge {
+  /**
+   * @param {URL} url module worker script
+   * @param {{count?: number, onEvent?: (event: {kind: string, message: string}) => void}} options
+   *   `onEvent` hears 'startup-error' and 'crash' events for the page to show.
+   */
+  constructor(url, { count = 1, onEvent = () => {} } = {}) {
+    this.url = url;
+    this.onEvent = onEvent;
+    this.nextId = 1;
+    this.restarts = [];
+    this.slots = Array.from({ length: count }, (_, i) => this.#spawn(i));
+  }
+
+  /** Resolves once every worker has loaded wasm; rejects with the first start-up error. */
+  ready() {
+    return Promise.all(this.slots.map((s) => s.ready));
+  }
+
+  /** Number of requests waiting for a reply, over all workers. */
+  get pending() {
+    return this.slots.reduce((n, s) => n + s.pending.size, 0);
+  }
+
+  /**
+   * Send `{type, id, ...payload}` to the least busy worker.
+   * @param {string} type request type (see worker.js)
+   * @param {object} payload fields of the request
+   * @param {Transferable[]} transfer buffers to move to the worker (they become unusable here)
+   * @param {{onProgress?: (message: string) => void}} options
+   */
+  request(type, payload = {}, transfer = [], { onProgress } = {}) {
+    const slot = this.slots.reduce((a, b) => (b.pending.size < a.pending.size ? b : a));
+    const id = this.nextId++;
+    return new Promise((resolve, reject) => {
+      slot.pending.set(id, { resolve, reject, onProgress });
+      try {
+        slot.worker.postMessage({ ...payload, type, id }, transfer);
+      } catch (e) {
+        slot.pending.delete(id);
+        reject(e);
+      }
+    });
+  }
+
+  /** Stop every worker; outstanding requests fail. */
+  terminate() {
+    for (const slot of this.slots) this.#fail(slot, 'the page stopped the decoder');
+    for (const slot of this.slots) slot.worker.terminate();
+  }
+
+  #spawn(index) {
+    const worker = new Worker(this.url, { type: 'module', name: `stripelight-decoder-${index}` });
+    const slot = { index, worker, pending: new Map(), started: false };
+    slot.ready = new Promise((resolve, reject) => {
+      slot.onReady = resolve;
+      slot.onStartupError = reject;
+    });
+    slot.ready.catch(() => {}); // reported through onEvent; callers may also await ready()
+    worker.onmessage = (event) => this.#receive(slot, event.data);
+    worker.onerror = (event) => {
+      event.preventDefault();
+      const reason = event.message || 'the worker script failed to load (is pkg/ built? run scripts/build-web.sh)';
+      if (!slot.started) {
+        this.#startupFailed(slot, reason);
+      } else {
+        this.#crashed(slot, `the decoder stopped: ${reason}`);
+      }
+    };
+    worker.onmessageerror = () => this.#crashed(slot, 'a message from the decoder could not be read');
+    return slot;
+  }
+
+  #receive(slot, msg) {
+    switch (msg.type) {
+      case 'ready':
+        slot.started = true;
+        slot.onReady();
+        break;
+      case 'startup-error':
+        this.#startupFailed(slot, msg.message);
+        break;
+      case 'progress':
+        slot.pending.get(msg.id)?.onProgress?.(msg.message);
+        break;
+      case 'reply': {
+        const entry = slot.pending.get(msg.id);
+        if (!entry) break;
+        slot.pending.delete(msg.id);
+        if (msg.ok) entry.resolve(msg.value);
+        else entry.reject(new Error(msg.error));
+        if (msg.fatal) this.#crashed(slot, msg.error);
+        break;
+      }
+      default:
+        console.warn('stripelight: unknown message from the worker', msg);
+    }
+  }
+
+  #startupFailed(slot, reason) {
+    slot.onStartupError(new Error(reason));
+    this.#fail(slot, `the decoder did not start: ${reason}`);
+    this.onEvent({ kind: 'startup-error', message: `The decoder could not start: ${reason}` });
+  }
+
+  #crashed(slot, reason) {
+    if (slot.replaced) return;
+    slot.replaced = true;
+    this.#fail(slot, reason);
+    slot.worker.terminate();
+    const now = Date.now();
+    this.restarts = this.restarts.filter((t) => now - t < RESTART_WINDOW_MS);
+    if (this.restarts.length >= MAX_RESTARTS) {
+      this.onEvent({ kind: 'crash', message: `${reason}. It crashed too often to be restarted; reload the page.` });
+      return;
+    }
+    this.restarts.push(now);
+    this.slots[slot.index] = this.#spawn(slot.index);
+    this.onEvent({ kind: 'crash', message: `${reason}. Decoder ${slot.index + 1} was restarted and takes the next request.` });
+  }
+
+  #fail(slot, reason) {
+    for (const { reject } of slot.pending.values()) reject(new Error(reason));
+    slot.pending.clear();
+  }
+}
