@@ -18,11 +18,19 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let cfg = SimConfig { seed: 1, projector_gamma: spec.encoding_gamma as f32, ..SimConfig::default() };
     let truth = sim::render(&Scene::builtin(&scene_name)?, &calib, &spec.render_rgb8(), &cfg)?;
     let mut scanner = Scanner::new(spec, calib, ScanConfig { filter, keep_stages: true, crosstalk: cfg.crosstalk, ..ScanConfig::default() })?;
-    let result = scanner.scan(&truth.image)?;
+    scanner.scan(&truth.image)?;
+    let result = scanner.result().clone();
     let m = eval::measure(&result.depth, &truth);
     println!("{scene_name}, {directions} directions, {filter}: {m:?}");
     for (k, d) in result.family_depth.iter().enumerate() {
         println!("family {k}: {:?}", eval::measure(d, &truth));
+    }
+    for (k, seg) in scanner.segmentations().iter().enumerate() {
+        let edges: Vec<_> = seg.lines.iter().flatten().collect();
+        let read = edges.iter().filter(|e| e.code != stripelight::segment::NO_CODE).count();
+        let named = edges.iter().filter(|e| e.id >= 0).count();
+        println!("dominant {:.1} deg", scanner.restored()[k].dominant.to_degrees());
+        println!("family {k}: {} boundaries, {read} read, {named} identified; {:?}", edges.len(), scanner.predictions()[k]);
     }
     std::fs::create_dir_all(&out)?;
     // Error map: green correct, red outlier, blue lit but not decoded.

@@ -26,6 +26,9 @@ pub type Code = u8;
 /// The code of a boundary that could not be classified.
 pub const NO_CODE: Code = 255;
 
+/// Marks, during classification, a candidate that is no boundary at all.
+const NOT_A_BOUNDARY: Code = 254;
+
 /// Smallest edge strength (sum over channels of the squared central difference of the
 /// log signal) for a boundary candidate. A palette step of ln(1/0.45) = 0.8 (the
 /// weakest, three-family palette) blurred over two pixels gives about 0.16 per
@@ -226,6 +229,7 @@ impl Segmentation {
             }
             run_id += 1;
             classify(edges, &sc.signal, &sc.ok, period);
+            edges.retain(|e| e.code != NOT_A_BOUNDARY);
         }
     }
 }
@@ -284,6 +288,10 @@ fn classify(edges: &mut [Edge], signal: &[Vec<f32>; 3], ok: &[bool], period: f32
         }
         let largest = delta.iter().fold(0f32, |m, d| m.max(d.abs()));
         if largest < MIN_STEP {
+            // Too little change for a boundary of this family: noise, shading, or
+            // another family's boundary leaking through the restoration. Not kept, so
+            // that it does not split a window of real boundaries.
+            edges[i].code = NOT_A_BOUNDARY;
             continue;
         }
         let mut t = [0i8; 3];

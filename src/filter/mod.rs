@@ -234,7 +234,24 @@ pub struct LogGradFilter {
     m: [Vec<f32>; 6],
     tmp: Vec<f32>,
     tmp2: Vec<f32>,
+    /// Per spectrum bin: its 1-degree direction bin, or `u16::MAX` outside the band
+    /// of stripe frequencies.
+    direction_bin: Vec<u16>,
+    /// Spectral power of the frame's log image per direction (degrees, 0..180).
+    direction_power: Vec<f64>,
 }
+
+/// Band of spatial frequencies (cycles per pixel) that carries the stripes: from
+/// stripes 12 pixels wide to 2 pixels wide (the demo rig's are about 7). Lower
+/// frequencies belong mostly to objects' outlines, whose edges would pull the
+/// direction estimate.
+pub const STRIPE_BAND: (f64, f64) = (0.04, 0.25);
+
+/// How far (radians) a family's dominant direction in the frame is searched from the
+/// calibration's prediction: 15 degrees, more than surfaces at the working distance
+/// turn the stripes as a whole, less than the 30 degrees to a neighbouring family's
+/// window edge.
+pub const DOMINANT_SEARCH: f32 = 15.0 * PI / 180.0;
 
 impl LogGradFilter {
     /// Plan for `width` x `height` frames.
@@ -268,6 +285,8 @@ impl LogGradFilter {
             m: [plane(), plane(), plane(), plane(), plane(), plane()],
             tmp: plane(),
             tmp2: plane(),
+            direction_bin: direction_bins(pw, ph),
+            direction_power: vec![0.0; 180],
         })
     }
 
@@ -302,18 +321,26 @@ impl LogGradFilter {
             return Ok(());
         }
         self.steerable_planes(linear)?;
-        self.criterion_planes();
+        if mode == FilterMode::LogGrad && windows.len() < 3 {
+            self.criterion_planes();
+        }
         for (r, w) in out.iter_mut().zip(windows) {
             r.dominant = self.dominant_angle(w);
         }
-        if mode == FilterMode::LogGrad {
+        // With three families 60 degrees apart eq. 8's criterion is flat in the angle
+        // (see `dominant_angle`), so each family keeps its dominant angle.
+        let per_pixel = mode == FilterMode::LogGrad && windows.len() < 3;
+        if per_pixel {
             for k in 0..6 {
                 box_filter_into(&self.m[k], &mut self.tmp2, &mut self.tmp, self.width, self.height, ANGLE_SMOOTH_RADIUS);
                 std::mem::swap(&mut self.m[k], &mut self.tmp2);
             }
         }
         for (r, w) in out.iter_mut().zip(windows) {
-            self.compose(r, w, mode == FilterMode::LogGrad);
+            self.compose(r, w, per_pixel);
+        }
+        if out.len() == 3 {
+            decouple(out);
         }
         Ok(())
     }
@@ -336,10 +363,16 @@ impl LogGradFilter {
     /// The planes P, Q, C of every channel (eq. 5-6 for all angles at once).
     fn steerable_planes(&mut self, linear: &Image<Rgb>) -> Result<()> {
         let (w, h, pw, ph) = (self.width, self.height, self.pw, self.ph);
+        self.direction_power.iter_mut().for_each(|p| *p = 0.0);
         for ch in 0..3 {
             log_plane_into(linear, ch, &mut self.tmp);
             pad_into(&self.tmp, w, h, &mut self.padded, pw, ph);
             self.fft.forward(&self.padded, &mut self.spectrum)?;
+            for (bin, s) in self.direction_bin.iter().zip(&self.spectrum) {
+                if *bin != u16::MAX {
+                    self.direction_power[*bin as usize] += s.norm_sqr() as f64;
+                }
+            }
             // l̃ = l minus its components at the four null frequencies (real for a
             // real image): DC, (π,0), (0,π), (π,π).
             let n = (pw * ph) as f32;
@@ -402,20 +435,28 @@ impl LogGradFilter {
         }
     }
 
-    /// The family's dominant angle: the maximum of the frame's total criterion within
-    /// its window, searched in 1 degree steps.
+    /// The family's dominant angle: the direction, within its window, in which the
+    /// frame's log image has the most spectral power in the stripe band (smoothed over
+    /// 5 degrees, refined by a parabola). Eq. 8's gradient criterion cannot serve here:
+    /// summed over a frame with three families 60 degrees apart it is the same at every
+    /// angle (cos⁴ of three such angles always sums to 9/8).
     fn dominant_angle(&self, win: &FamilyWindow) -> f32 {
-        let total: Vec<f64> = self.m.iter().map(|m| m.iter().map(|&x| x as f64).sum()).collect();
-        let steps = (win.half_width.to_degrees().round() as i32).max(1);
-        let mut best = (f64::NEG_INFINITY, win.expected);
-        for d in -steps..=steps {
-            let phi = win.expected + (d as f32).to_radians();
-            let e = criterion(&total, phi as f64);
+        let p = &self.direction_power;
+        let smooth = |d: i32| -> f64 { (-2..=2).map(|k| p[(d + k).rem_euclid(180) as usize]).sum() };
+        let centre = win.expected.to_degrees().round() as i32;
+        let steps = (win.half_width.min(DOMINANT_SEARCH).to_degrees().round() as i32).max(1);
+        let mut best = (f64::NEG_INFINITY, centre);
+        for d in centre - steps..=centre + steps {
+            let e = smooth(d);
             if e > best.0 {
-                best = (e, phi);
+                best = (e, d);
             }
         }
-        best.1.rem_euclid(PI)
+        let (a, b, c) = (smooth(best.1 - 1), best.0, smooth(best.1 + 1));
+        let den = a - 2.0 * b + c;
+        let offset = if den < 0.0 { (0.5 * (a - c) / den).clamp(-0.5, 0.5) } else { 0.0 };
+        // Bin d holds directions [d, d + 1) degrees.
+        ((best.1 as f64 + 0.5 + offset) as f32).to_radians().rem_euclid(PI)
     }
 
     /// Write one family's restored image: per pixel the paper's angle (within the
@@ -449,10 +490,56 @@ impl LogGradFilter {
     }
 }
 
-/// `E(φ)` from six coefficients (see `criterion_planes`).
-fn criterion(m: &[f64], phi: f64) -> f64 {
-    let (al, be) = ((2.0 * phi).cos(), (2.0 * phi).sin());
-    m[0] + 2.0 * al * m[1] + 2.0 * be * m[2] + al * al * m[3] + be * be * m[4] + 2.0 * al * be * m[5]
+/// The 1-degree direction bin of every spectrum entry (column-major layout of
+/// [`Fft2`]) whose frequency lies in [`STRIPE_BAND`]; `u16::MAX` elsewhere.
+fn direction_bins(pw: usize, ph: usize) -> Vec<u16> {
+    let mut bins = vec![u16::MAX; (pw / 2 + 1) * ph];
+    for k in 0..pw / 2 + 1 {
+        let fx = k as f64 / pw as f64;
+        for l in 0..ph {
+            let fy = if l > ph / 2 { l as f64 - ph as f64 } else { l as f64 } / ph as f64;
+            let f = fx.hypot(fy);
+            if f >= STRIPE_BAND.0 && f <= STRIPE_BAND.1 {
+                let deg = fy.atan2(fx).to_degrees().rem_euclid(180.0);
+                bins[k * ph + l] = (deg as u16).min(179);
+            }
+        }
+    }
+    bins
+}
+
+/// Separate three families that leak into each other's restorations.
+///
+/// With a steerable derivative, the restoration at angle φ passes a family whose
+/// stripes have normal θ with weight cos²(θ − φ): 1 for its own family and 0.25 for
+/// the others at 60 degrees (measured on the pattern itself: 0.26), so in each of
+/// three families' restorations the other two families' boundaries would stay visible
+/// at a quarter of their contrast. In the log domain the families add, so per pixel
+/// the three restorations are `R_k = Σ_j cos²(θ_j − θ_k)·S_j` in the three pure family
+/// signals `S_j`; one 3x3 inverse per frame decouples them. Two families 90 degrees
+/// apart do not need it (their weight is 0).
+fn decouple(out: &mut [Restored]) {
+    let theta = [out[0].dominant, out[1].dominant, out[2].dominant];
+    let c = |k: usize, j: usize| (theta[j] - theta[k]).cos().powi(2);
+    let m = glam::Mat3::from_cols(
+        glam::Vec3::new(c(0, 0), c(1, 0), c(2, 0)),
+        glam::Vec3::new(c(0, 1), c(1, 1), c(2, 1)),
+        glam::Vec3::new(c(0, 2), c(1, 2), c(2, 2)),
+    );
+    // Nearly collinear families (a degenerate rig) are left as they are.
+    if m.determinant().abs() < 0.05 {
+        return;
+    }
+    let inv = m.inverse();
+    for ch in 0..3 {
+        for i in 0..out[0].log[ch].len() {
+            let r = glam::Vec3::new(out[0].log[ch][i], out[1].log[ch][i], out[2].log[ch][i]);
+            let sep = inv * r;
+            out[0].log[ch][i] = sep.x;
+            out[1].log[ch][i] = sep.y;
+            out[2].log[ch][i] = sep.z;
+        }
+    }
 }
 
 /// Fraction of the family window (around the frame's dominant angle) searched per
