@@ -14,7 +14,7 @@
 //! **Sequence.** The stripes follow a sequence in which adjacent colours always differ
 //! and every window of `window` consecutive stripes is unique *by its transitions*
 //! (which implies unique by colours). This is a de Bruijn-style construction over
-//! transitions rather than the paper's permutation pattern [12]: with 8 colours a
+//! transitions rather than the paper's permutation pattern (its reference 12): with 8 colours a
 //! 3-stripe window (two transitions) already allows 290 distinct windows, enough for
 //! 1024 / 4 stripes, so a stripe is identified from itself and its two neighbours:
 //! half the window of the paper's 7-stripe permutation pattern, which is what matters

@@ -8,7 +8,7 @@
 //!
 //! Two implementations share one output type, [`Restored`]:
 //!
-//! - [`reference`]: the paper to the letter. For each of 17 angles (0 to 160 degrees
+//! - [`reference`](mod@reference): the paper to the letter. For each of 17 angles (0 to 160 degrees
 //!   in 10 degree steps) rotate the image, take the log, apply the Sobel x-derivative
 //!   (eq. 5), restore by FFT division (eq. 6), exponentiate and rotate back (eq. 7);
 //!   per pixel pick the angle whose restored image has the largest gradient magnitude
@@ -26,6 +26,17 @@
 //!   log-domain gradient energy
 //!   `Σ_c |∇ĩ_c^φ|²`, a quadratic form in `(cos 2φ, sin 2φ)` whose six coefficients are
 //!   box-filtered over about one stripe period so that the choice is stable.
+//!
+//! Multi-direction restoration (section 4): each family's dominant direction is
+//! estimated from the frame, within [`DOMINANT_SEARCH`] of the direction the
+//! calibration predicts, as the direction of most spectral power of the log image in
+//! the stripe band (one histogram over the forward transforms the filter makes
+//! anyway). For two families each pixel then takes the best angle near its family's
+//! dominant direction. For three families 60 degrees apart eq. 8's gradient criterion
+//! is the same at every angle (the three families' cos⁴ weights always sum to 9/8),
+//! so a per-pixel choice would be noise: each family keeps its dominant angle, and the
+//! quarter of each neighbouring family that a steered derivative lets through is
+//! removed by solving a 3x3 system per frame (`decouple`).
 //!
 //! Where the two differ: the reference resamples the image twice (bilinear rotation
 //! and back), Sobel is only approximately steerable (its responses at 0 and 90
