@@ -266,7 +266,7 @@ impl HeightField {
     }
 
     /// `h` alone, as [`HeightField::height`] (the marching loop needs no gradient).
-    #[inline]
+    #[inline(always)]
     fn height_only(&self, x: f64, y: f64) -> f64 {
         let (i, j, fx, fy) = self.locate(x, y);
         let k = j * self.nx + i;
@@ -296,7 +296,8 @@ impl HeightField {
         let hi = DVec3::new(x1, y1, self.z0 + self.h_max);
         let (ta, tb) = clip_to_box(o, d, lo, hi, t_min, t_max)?;
         let len = d.length();
-        if !(len > 0.0) {
+        // A non-finite ray (from a pathological lens model) would march forever.
+        if !(len > 0.0 && len.is_finite() && o.is_finite() && tb.is_finite()) {
             return None;
         }
         let ray = MarchRay {
@@ -640,7 +641,7 @@ impl Shape {
                 }
             }
             Shape::Sphere { center, radius } => {
-                if !finite(*center) || !(radius.is_finite() && *radius > 0.0) {
+                if !(finite(*center) && radius.is_finite() && *radius > 0.0) {
                     return bad("a sphere needs a finite centre and a positive radius");
                 }
             }
@@ -649,7 +650,7 @@ impl Shape {
                     .to_cols_array()
                     .iter()
                     .fold(0f64, |m, x| m.max(x.abs()));
-                if !finite(*center) || !(dev < 1e-6) || !(half.is_finite() && half.min_element() > 0.0) {
+                if !(finite(*center) && dev < 1e-6 && half.is_finite() && half.min_element() > 0.0) {
                     return bad("a box needs a finite centre, orthonormal axes and positive half-extents");
                 }
             }

@@ -51,6 +51,9 @@
 //! assert!((frame.depth.get(320, 240) - 750.0).abs() < 1.0);
 //! ```
 
+// Negated comparisons (`!(x > 0.0)`) are deliberate throughout: they also catch NaN.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
 mod geometry;
 mod scene;
 mod sensor;
@@ -83,6 +86,10 @@ const SHADOW_CLEARANCE_MM: f64 = 0.01;
 
 /// Largest supersampling factor accepted (64 rays per pixel).
 const MAX_SUPERSAMPLE: usize = 8;
+
+/// Largest camera accepted, pixels (64 megapixels; a simulated frame of that size
+/// already takes about a gigabyte).
+const MAX_CAMERA_PIXELS: usize = 1 << 26;
 
 /// How the simulated projector and camera behave. `Default` gives a realistic
 /// LCD projector and 3CCD camera in a dim room at the demo rig's working distance.
@@ -192,8 +199,10 @@ impl SimConfig {
     }
 }
 
-/// A simulated camera frame and its ground truth, all of camera size.
-#[derive(Clone, Debug, PartialEq)]
+/// A simulated camera frame and its ground truth, all of camera size. (No
+/// `PartialEq`: the NaNs of the ground truth never compare equal; compare
+/// [`Frame::same_as`] instead.)
+#[derive(Clone, Debug)]
 pub struct Frame {
     /// The camera frame (8-bit, gamma-encoded RGB).
     pub image: Image<[u8; 3]>,
@@ -217,6 +226,17 @@ impl Frame {
             projector: Image::new(width, height, [f32::NAN; 2]),
             lit: Image::new(width, height, false),
         }
+    }
+
+    /// Bit-for-bit equality of every image (NaNs included).
+    pub fn same_as(&self, other: &Frame) -> bool {
+        let bits = |img: &Image<f32>| img.pixels().iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        let proj_bits = |img: &Image<[f32; 2]>| img.pixels().iter().map(|p| p.map(f32::to_bits)).collect::<Vec<_>>();
+        self.image == other.image
+            && self.lit == other.lit
+            && self.depth.size() == other.depth.size()
+            && bits(&self.depth) == bits(&other.depth)
+            && proj_bits(&self.projector) == proj_bits(&other.projector)
     }
 }
 
@@ -244,7 +264,13 @@ pub fn render_into(
     cfg.validate()?;
     projector_image.expect_size(calib.projector.width as usize, calib.projector.height as usize)?;
     let (w, h) = (calib.camera.width as usize, calib.camera.height as usize);
-    if frame.image.size() != (w, h) {
+    if w as u64 * h as u64 > MAX_CAMERA_PIXELS as u64 {
+        return Err(Error::Invalid(format!(
+            "simulator: a {w}x{h} camera is more than {MAX_CAMERA_PIXELS} pixels"
+        )));
+    }
+    let sizes = [frame.image.size(), frame.depth.size(), frame.projector.size(), frame.lit.size()];
+    if sizes.iter().any(|&s| s != (w, h)) {
         *frame = Frame::new(w, h);
     }
     let light = Light::new(calib, projector_image, cfg);
@@ -336,10 +362,11 @@ impl<'a> CameraRays<'a> {
             return self.camera.ray(u, v);
         }
         // Bilinear (extrapolating by half a pixel at the border) from the nearest cell.
-        // `as usize` truncates: the floor for the non-negative values kept.
-        let i = (u.max(0.0) as usize).min(self.width - 2);
-        let j = (v.max(0.0) as usize).min(self.height - 2);
+        // Truncation is the floor for the non-negative values kept.
+        let i = (u.max(0.0) as i64).min(self.width as i64 - 2);
+        let j = (v.max(0.0) as i64).min(self.height as i64 - 2);
         let (fx, fy) = (u - i as f64, v - j as f64);
+        let (i, j) = (i as usize, j as usize);
         let k = j * self.width + i;
         let c = &self.centres;
         let top = c[k] + (c[k + 1] - c[k]) * fx;
@@ -430,11 +457,13 @@ impl<'a> Light<'a> {
     /// Emitted linear light at projector pixel `px` (bilinear, clamped at the border).
     fn emission(&self, px: DVec2) -> Rgb {
         let (w, h) = self.image.size();
-        let x = px.x.clamp(0.0, (w - 1) as f64);
-        let y = px.y.clamp(0.0, (h - 1) as f64);
-        let (i0, j0) = (x as usize, y as usize);
-        let (i1, j1) = ((i0 + 1).min(w - 1), (j0 + 1).min(h - 1));
+        let x = px.x.max(0.0).min((w - 1) as f64);
+        let y = px.y.max(0.0).min((h - 1) as f64);
+        // Truncation is the floor here (x, y >= 0); i64 casts are cheaper than usize ones.
+        let (i0, j0) = (x as i64, y as i64);
         let (fx, fy) = ((x - i0 as f64) as f32, (y - j0 as f64) as f32);
+        let (i0, j0) = (i0 as usize, j0 as usize);
+        let (i1, j1) = ((i0 + 1).min(w - 1), (j0 + 1).min(h - 1));
         let (a, b) = (self.image.get(i0, j0), self.image.get(i1, j0));
         let (c, d) = (self.image.get(i0, j1), self.image.get(i1, j1));
         let mut out = [0f32; 3];

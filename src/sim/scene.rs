@@ -62,13 +62,14 @@ impl Scene {
     /// A built-in scene for the demo rig's view (camera frame, Z about 600-950 mm):
     ///
     /// - `plane`: a white plane (albedo 0.8) through Z = 750 mm tilted 18 degrees, so depth
-    ///   runs from about 650 to 850 mm across the view;
+    ///   runs from about 640 to 900 mm across the view;
     /// - `sphere`: a sphere of radius 150 mm at Z = 800 mm in longitude/latitude squares of
     ///   saturated red, green, blue, yellow, cyan, magenta and white, before a light grey
     ///   plane at 950 mm;
-    /// - `paper`: crumpled paper, a 520 x 400 mm sheet `z = 750 + h(x, y)` with folds of
-    ///   15-30 mm in four colour quadrants (cyan, blue, green, red clockwise from the top
-    ///   left, as in the paper's Fig. 4), over a dark table at 900 mm;
+    /// - `paper`: crumpled paper, a 520 x 400 mm sheet `z = 750 + h(x, y)` (Z about
+    ///   720-785 mm) with folds and ridges of 15-30 mm, in four colour quadrants (cyan,
+    ///   blue, green, red clockwise from the top left, as in the paper's Fig. 4), over a
+    ///   dark table at 900 mm;
     /// - `textured`: an upright cylinder (radius 160 mm, axis at Z = 810 mm) with blotchy
     ///   multi-hue texture and dark patches, before a plane at 950 mm with a two-tone checkerboard;
     /// - `occluders`: a horizontal bar, a vertical post and a diagonal bar at 650-750 mm
@@ -290,7 +291,7 @@ fn textured_scene() -> Scene {
                     radius: 160.0,
                     half_length: 185.0,
                 },
-                texture: Texture::Blotchy { scale: 45.0, seed: 11 },
+                texture: Texture::Blotchy { scale: 60.0, seed: 11 },
             },
             Object {
                 shape: wall(950.0),

@@ -43,7 +43,7 @@ const BLOTCH_SATURATION: f64 = 0.7;
 /// Brightness (HSV value) of the blotchy texture away from its dark patches.
 const BLOTCH_VALUE: f64 = 0.72;
 /// Noise level above which the blotchy texture turns dark, and the width of the soft edge.
-const BLOTCH_DARK_FROM: f64 = 0.6;
+const BLOTCH_DARK_FROM: f64 = 0.58;
 const BLOTCH_DARK_EDGE: f64 = 0.07;
 /// Brightness left in the dark patches.
 const BLOTCH_DARK_LEVEL: f64 = 0.16;
@@ -71,13 +71,21 @@ impl Texture {
             },
             Texture::Blotchy { scale, seed } => {
                 let p = st / scale.max(1e-9);
-                let hue_noise = 0.65 * value_noise(p, *seed) + 0.35 * value_noise(p * 2.1 + DVec2::new(17.3, 5.1), *seed ^ 1);
-                let dark_noise = value_noise(p * 0.9 + DVec2::new(-41.7, 23.9), seed.wrapping_add(0x5EED));
+                // Each octave on its own rotated, shifted lattice so that no lattice
+                // direction shows in the blotches' outlines.
+                let octave = |p: DVec2, turn: f64, shift: DVec2, seed: u64| {
+                    let (s, c) = turn.sin_cos();
+                    value_noise(DVec2::new(c * p.x - s * p.y, s * p.x + c * p.y) + shift, seed)
+                };
+                let hue_noise = 0.65 * octave(p, 0.0, DVec2::ZERO, *seed)
+                    + 0.35 * octave(p * 2.1, 0.9, DVec2::new(17.3, 5.1), seed ^ 1);
+                let dark_noise = 0.6 * octave(p * 0.8, 0.5, DVec2::new(-41.7, 23.9), seed.wrapping_add(0x5EED))
+                    + 0.4 * octave(p * 1.7, 1.3, DVec2::new(8.2, -61.4), seed.wrapping_add(0x5EEE));
                 let dark = smoothstep(BLOTCH_DARK_FROM, BLOTCH_DARK_FROM + BLOTCH_DARK_EDGE, dark_noise);
                 let value = BLOTCH_VALUE * (1.0 - (1.0 - BLOTCH_DARK_LEVEL) * dark);
-                // Value noise clusters around 0.5; three turns of the colour circle over
+                // Value noise clusters around 0.5; two turns of the colour circle over
                 // its range make every hue common.
-                let hue = (3.0 * hue_noise).fract();
+                let hue = (2.0 * hue_noise + 0.15).fract();
                 hsv_to_rgb(hue, BLOTCH_SATURATION, value)
             }
         }
