@@ -1,0 +1,52 @@
+//! The command line: bad input gives one line on stderr and a non-zero exit, never a
+//! panic; a good run writes what it says. Native only (it runs the binary).
+#![cfg(not(target_arch = "wasm32"))]
+
+use std::path::Path;
+use std::process::Command;
+
+fn run(args: &[&str]) -> (i32, String) {
+    let out = Command::new(env!("CARGO_BIN_EXE_stripelight")).args(args).output().unwrap();
+    (out.status.code().unwrap_or(-1), String::from_utf8_lossy(&out.stderr).into_owned())
+}
+
+fn fails_with(args: &[&str], needle: &str) {
+    let (code, err) = run(args);
+    assert_ne!(code, 0, "{args:?} succeeded");
+    assert_eq!(err.trim_end().lines().count(), 1, "{args:?}: not one line: {err}");
+    assert!(err.contains(needle) && !err.contains("panicked"), "{args:?}: {err}");
+}
+
+#[test]
+fn bad_input_is_one_line_and_a_non_zero_exit() {
+    let dir = std::env::temp_dir().join(format!("stripelight-cli-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let p = |name: &str| dir.join(name).to_string_lossy().into_owned();
+    let (spec, calib, frame) = (p("p.json"), p("c.json"), p("f.png"));
+    assert_eq!(run(&["pattern", "--directions", "2", "--out", &p("p.png"), "--spec", &spec]).0, 0);
+    assert_eq!(run(&["calib", "--default", "--out", &calib]).0, 0);
+    assert_eq!(run(&["render", "--scene", "plane", "--spec", &spec, "--calib", &calib, "--out", &frame]).0, 0);
+    std::fs::write(p("broken.json"), "{\"units\": \"mm\", ").unwrap();
+    std::fs::write(p("text.png"), "hello").unwrap();
+    fails_with(&["pattern", "--directions", "4", "--out", &p("x.png"), "--spec", &p("x.json")], "directions");
+    fails_with(&["render", "--scene", "teapot", "--spec", &spec, "--calib", &calib, "--out", &p("x.png")], "plane");
+    fails_with(&["render", "--scene", "plane", "--spec", &spec, "--calib", &p("broken.json"), "--out", &p("x.png")], "calibration");
+    fails_with(&["scan", "--spec", &calib, "--calib", &calib, "--image", &frame], "pattern spec");
+    fails_with(&["scan", "--spec", &spec, "--calib", &calib, "--image", &p("text.png")], "not a readable image");
+    fails_with(&["scan", "--spec", &spec, "--calib", &calib, "--image", &p("p.png")], "1024x768 but 640x480");
+    fails_with(&["scan", "--spec", &spec, "--calib", &calib, "--image", &frame, "--filter", "sharp"], "filter");
+    fails_with(&["calib", "--default", "--out", "/nonexistent-dir/c.json"], "/nonexistent-dir/c.json");
+    // A good scan writes the depth map and the cloud and says how many points.
+    let (code, err) = run(&["scan", "--spec", &spec, "--calib", &calib, "--image", &frame, "--crosstalk", "sim",
+        "--depth", &p("d.pfm"), "--ply", &p("c.ply")]);
+    assert_eq!(code, 0, "{err}");
+    assert!(err.contains("points"), "{err}");
+    assert!(std::fs::read(p("d.pfm")).unwrap().starts_with(b"Pf\n640 480\n-1"));
+    assert!(std::fs::read(p("c.ply")).unwrap().starts_with(b"ply\nformat binary_little_endian 1.0\n"));
+    // A black frame is a result (nothing decoded), not an error.
+    std::fs::write(p("black.png"), stripelight::io::encode_png(&stripelight::Image::new(640, 480, [0u8; 3])).unwrap()).unwrap();
+    let (code, err) = run(&["scan", "--spec", &spec, "--calib", &calib, "--image", &p("black.png")]);
+    assert_eq!(code, 0, "{err}");
+    assert!(err.contains("0 points") && err.contains("nothing decoded"), "{err}");
+    let _ = std::fs::remove_dir_all(Path::new(&dir));
+}
