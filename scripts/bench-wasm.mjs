@@ -21,12 +21,15 @@ for (const directions of [1, 2, 3]) {
   const rgba = frame.rgba();
   for (const filter of ['direct', 'loggrad']) {
     const scanner = new wasm.Scanner(spec, calib, filter, crosstalk);
-    scanner.scan(rgba, frame.width, frame.height).free(); // warm up
+    const first = scanner.scan(rgba, frame.width, frame.height); // warm up
+    const stages = JSON.parse(first.statsJson).stage_ms.map(([n, ms]) => `${n} ${ms.toFixed(0)}`);
+    first.free();
     const runs = 10;
     const start = performance.now();
     for (let i = 0; i < runs; i++) scanner.scan(rgba, frame.width, frame.height).free();
     const ms = (performance.now() - start) / runs;
     console.log(`| ${directions} | ${filter} | ${ms.toFixed(1)} |`);
+    console.error(`  stages (ms): ${stages.join(', ')}`);
     scanner.free();
   }
 }

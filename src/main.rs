@@ -211,7 +211,7 @@ mod cli {
                     Some("sim") => stripelight::sim::SimConfig::default().crosstalk,
                     Some(text) => parse_matrix(text)?,
                 };
-                let config = ScanConfig { filter, camera_gamma, keep_stages: debug.is_some(), crosstalk };
+                let config = ScanConfig { filter, camera_gamma, keep_stages: debug.is_some(), crosstalk, ..ScanConfig::default() };
                 let mut scanner = Scanner::new(spec, calib, config)?;
                 let result = scanner.scan(&frame).map_err(|e| Error::Invalid(format!("{}: {e}", image.display())))?;
                 let stats = &result.stats;

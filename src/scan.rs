@@ -60,7 +60,7 @@ impl fmt::Display for FilterMode {
 }
 
 /// Settings of a scanner.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug)]
 pub struct ScanConfig {
     /// Which restoration feeds segmentation.
     pub filter: FilterMode,
@@ -76,6 +76,10 @@ pub struct ScanConfig {
     /// unknown. The scanner undoes it before anything else: on saturated surfaces a
     /// bright channel leaking into a dark one would otherwise fake transitions.
     pub crosstalk: [[f32; 3]; 3],
+    /// A clock in milliseconds for the per-stage timings in [`ScanStats::stage_ms`]:
+    /// the operating system's natively, none in WebAssembly unless the boundary gives
+    /// one (the pipeline itself knows nothing of the browser).
+    pub clock: Option<fn() -> f64>,
 }
 
 /// No colour mixing.
@@ -83,7 +87,16 @@ pub const IDENTITY_CROSSTALK: [[f32; 3]; 3] = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0],
 
 impl Default for ScanConfig {
     fn default() -> Self {
-        ScanConfig { filter: FilterMode::LogGrad, camera_gamma: 2.2, keep_stages: false, crosstalk: IDENTITY_CROSSTALK }
+        ScanConfig {
+            filter: FilterMode::LogGrad,
+            camera_gamma: 2.2,
+            keep_stages: false,
+            crosstalk: IDENTITY_CROSSTALK,
+            #[cfg(not(target_arch = "wasm32"))]
+            clock: Some(native_clock),
+            #[cfg(target_arch = "wasm32")]
+            clock: None,
+        }
     }
 }
 
@@ -102,34 +115,36 @@ pub struct ScanStats {
     pub merged: usize,
     /// Pixels bright enough and not saturated.
     pub usable: usize,
-    /// Milliseconds per stage (native builds; empty in wasm, where the page times the
-    /// whole scan itself).
+    /// Milliseconds per stage, when the configuration has a clock.
     pub stage_ms: Vec<(&'static str, f64)>,
 }
 
-/// Times the stages of one scan where a clock is available.
+/// Times the stages of one scan with the configured clock, if any.
 struct StageClock {
-    #[cfg(not(target_arch = "wasm32"))]
-    last: std::time::Instant,
+    clock: Option<fn() -> f64>,
+    last: f64,
 }
 
 impl StageClock {
-    fn start() -> Self {
-        StageClock {
-            #[cfg(not(target_arch = "wasm32"))]
-            last: std::time::Instant::now(),
-        }
+    fn start(clock: Option<fn() -> f64>) -> Self {
+        StageClock { clock, last: clock.map_or(0.0, |c| c()) }
     }
 
     /// Record the time since the last lap under `name`.
-    fn lap(&mut self, _name: &'static str, _into: &mut Vec<(&'static str, f64)>) {
-        #[cfg(not(target_arch = "wasm32"))]
-        {
-            let now = std::time::Instant::now();
-            _into.push((_name, (now - self.last).as_secs_f64() * 1000.0));
+    fn lap(&mut self, name: &'static str, into: &mut Vec<(&'static str, f64)>) {
+        if let Some(clock) = self.clock {
+            let now = clock();
+            into.push((name, now - self.last));
             self.last = now;
         }
     }
+}
+
+/// Milliseconds since the first call, from the operating system's monotonic clock.
+#[cfg(not(target_arch = "wasm32"))]
+pub fn native_clock() -> f64 {
+    static ORIGIN: std::sync::OnceLock<std::time::Instant> = std::sync::OnceLock::new();
+    ORIGIN.get_or_init(std::time::Instant::now).elapsed().as_secs_f64() * 1000.0
 }
 
 /// What a scan produces.
@@ -384,7 +399,7 @@ impl Scanner {
 
     fn scan_own_frame(&mut self) -> Result<&ScanResult> {
         let (w, h) = (self.width, self.height);
-        let mut clock = StageClock::start();
+        let mut clock = StageClock::start(self.config.clock);
         let mut laps = std::mem::take(&mut self.result.stats.stage_ms);
         laps.clear();
         for (d, s) in self.linear.pixels_mut().iter_mut().zip(self.frame.pixels()) {

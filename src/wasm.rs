@@ -369,7 +369,7 @@ impl WasmScanner {
                 [[rows[0], rows[1], rows[2]], [rows[3], rows[4], rows[5]], [rows[6], rows[7], rows[8]]]
             }
         };
-        let config = ScanConfig { filter: parse_filter(filter)?, crosstalk, ..ScanConfig::default() };
+        let config = ScanConfig { filter: parse_filter(filter)?, crosstalk, clock: Some(js_sys::Date::now), ..ScanConfig::default() };
         Ok(WasmScanner { inner: Scanner::new(spec, calib, config).map_err(js_error)? })
     }
 
