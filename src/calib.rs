@@ -497,3 +497,59 @@ mod tests {
         assert!(Calibration::from_json(&no_dist).is_ok());
     }
 }
+
+/// Least fraction of a primary's frame that must be well exposed (neither dark nor
+/// saturated in any channel) for [`estimate_crosstalk`].
+const CROSSTALK_MIN_COVERAGE: f64 = 0.01;
+
+/// Estimate the camera's colour mixing (`ScanConfig::crosstalk`) from four frames of a
+/// white card: the projector showing full red, full green, full blue and black. Per
+/// camera channel c and primary k, `M[c][k]` is the mean linear response of c to k
+/// (black frame subtracted, which removes ambient light and the projector's black
+/// level), over the pixels well exposed in all four frames; each row is scaled to sum
+/// to 1 (a camera channel's gain does not matter to decoding, which works on ratios).
+/// `gamma` is the camera's encoding gamma.
+pub fn estimate_crosstalk(
+    primaries: [&crate::raster::Image<[u8; 3]>; 3],
+    black: &crate::raster::Image<[u8; 3]>,
+    gamma: f32,
+) -> Result<[[f32; 3]; 3]> {
+    let size = black.size();
+    for p in primaries {
+        p.expect_size(size.0, size.1)?;
+    }
+    let lin = |v: u8| (v as f64 / 255.0).powf(gamma as f64);
+    let mut sum = [[0f64; 3]; 3];
+    let mut count = 0usize;
+    for i in 0..size.0 * size.1 {
+        let frames = [primaries[0].pixels()[i], primaries[1].pixels()[i], primaries[2].pixels()[i]];
+        let usable = frames.iter().all(|p| p.iter().all(|&c| c < 250)) && frames.iter().all(|p| p.iter().any(|&c| c > 40));
+        if !usable {
+            continue;
+        }
+        count += 1;
+        let k0 = black.pixels()[i];
+        for (k, p) in frames.iter().enumerate() {
+            for c in 0..3 {
+                sum[c][k] += (lin(p[c]) - lin(k0[c])).max(0.0);
+            }
+        }
+    }
+    if (count as f64) < CROSSTALK_MIN_COVERAGE * (size.0 * size.1) as f64 {
+        return Err(Error::Invalid(format!(
+            "colour frames: only {count} pixels are well exposed under all three primaries; \
+             point the camera at a white card lit by the projector and avoid saturation"
+        )));
+    }
+    let mut m = [[0f32; 3]; 3];
+    for c in 0..3 {
+        let row: f64 = sum[c].iter().sum();
+        if row <= 0.0 {
+            return Err(Error::Invalid(format!("colour frames: camera channel {c} saw no projector light")));
+        }
+        for k in 0..3 {
+            m[c][k] = (sum[c][k] / row) as f32;
+        }
+    }
+    Ok(m)
+}

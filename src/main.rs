@@ -97,6 +97,25 @@ mod cli {
             #[arg(long, default_value_t = 1)]
             seed: u64,
         },
+        /// Measure the camera's colour mixing (for `scan --crosstalk`) from frames of a
+        /// white card under the projector's full red, green, blue and black.
+        Crosstalk {
+            /// Frame under full red.
+            #[arg(long)]
+            red: PathBuf,
+            /// Frame under full green.
+            #[arg(long)]
+            green: PathBuf,
+            /// Frame under full blue.
+            #[arg(long)]
+            blue: PathBuf,
+            /// Frame under black (ambient light and the projector's black level).
+            #[arg(long)]
+            black: PathBuf,
+            /// The camera's encoding gamma.
+            #[arg(long, default_value_t = 2.2)]
+            camera_gamma: f32,
+        },
         /// Write a calibration file.
         Calib {
             /// The demo rig (VGA camera, XGA projector, 200 mm diagonal baseline).
@@ -258,6 +277,14 @@ mod cli {
                     }
                 }
                 print!("{}", stripelight::eval::markdown(&rows));
+                Ok(())
+            }
+            Command::Crosstalk { red, green, blue, black, camera_gamma } => {
+                let (r, g, b, k) = (io::read_rgb8(&red)?, io::read_rgb8(&green)?, io::read_rgb8(&blue)?, io::read_rgb8(&black)?);
+                let m = stripelight::calib::estimate_crosstalk([&r, &g, &b], &k, camera_gamma)?;
+                // The form `scan --crosstalk` takes.
+                let values: Vec<String> = m.iter().flatten().map(|v| format!("{v:.4}")).collect();
+                println!("{}", values.join(","));
                 Ok(())
             }
             Command::Calib { default, distorted, out } => {

@@ -280,3 +280,27 @@ fn bad_input_is_refused() {
     };
     assert!(Scene::new(vec![bad]).is_err());
 }
+
+/// The colour mixing measured from frames of the simulator's white plane under full
+/// red, green, blue and black is the simulator's own crosstalk matrix.
+#[cfg_attr(not(target_arch = "wasm32"), test)]
+#[cfg_attr(target_arch = "wasm32", wasm_bindgen_test::wasm_bindgen_test)]
+fn colour_mixing_is_measured_from_primary_frames() {
+    let calib = Calibration::demo();
+    let scene = Scene::builtin("plane").unwrap();
+    let cfg = SimConfig { noise_sigma: 0.0, supersample: 1, ..SimConfig::default() };
+    let shot = |rgb: [u8; 3]| {
+        let img = Image::new(calib.projector.width as usize, calib.projector.height as usize, rgb);
+        sim::render(&scene, &calib, &img, &cfg).unwrap().image
+    };
+    let (r, g, b, k) = (shot([255, 0, 0]), shot([0, 255, 0]), shot([0, 0, 255]), shot([0, 0, 0]));
+    let m = stripelight::calib::estimate_crosstalk([&r, &g, &b], &k, cfg.camera_gamma).unwrap();
+    for c in 0..3 {
+        for j in 0..3 {
+            assert!((m[c][j] - cfg.crosstalk[c][j]).abs() < 0.02, "{m:?} vs {:?}", cfg.crosstalk);
+        }
+    }
+    // A black card gives a clear error, not a matrix.
+    let err = stripelight::calib::estimate_crosstalk([&k, &k, &k], &k, 2.2).unwrap_err().to_string();
+    assert!(err.starts_with("colour frames:"), "{err}");
+}
