@@ -32,6 +32,7 @@ const state = {
   // Simulated frames always use the simulator's, which is known exactly.
   crosstalk: 'none',
   simulatorCrosstalk: null, // 9 numbers, row-major
+  measuredCrosstalk: null, // 9 numbers, row-major, typed by the user
   frames: [],
   current: null,
   continuous: false,
@@ -661,7 +662,8 @@ function crosstalkFor(kind) {
 
 /** What a scan request needs besides the pixels. */
 function scanSettings(kind) {
-  const crosstalk = crosstalkFor(kind) === 'simulator' ? state.simulatorCrosstalk : null;
+  const mode = crosstalkFor(kind);
+  const crosstalk = mode === 'simulator' ? state.simulatorCrosstalk : mode === 'measured' ? state.measuredCrosstalk : null;
   return { specJson: state.specJson, calibJson: state.calibJson, filter: state.filter, crosstalk };
 }
 
@@ -849,7 +851,24 @@ function bindControls() {
     input.onchange = () => setFilter(input.value);
   }
   $('crosstalk').onchange = (e) => {
+    if (e.target.value === 'measured' && !state.measuredCrosstalk) {
+      showMessage('Type the 9 numbers that `stripelight crosstalk` printed into "Measured colour mixing" first.', 'error');
+      e.target.value = state.crosstalk;
+      return;
+    }
     state.crosstalk = e.target.value;
+    if (state.current && !state.continuous) showEntry(state.current, { keepView: true });
+  };
+  $('crosstalk-values').onchange = (e) => {
+    const values = e.target.value.split(/[\s,;]+/).filter((v) => v !== '').map(Number);
+    if (values.length !== 9 || !values.every(Number.isFinite)) {
+      showMessage(`Colour mixing needs 9 numbers, row by row; got ${values.length}.`, 'error');
+      return;
+    }
+    state.measuredCrosstalk = values;
+    state.crosstalk = 'measured';
+    $('crosstalk').value = 'measured';
+    showMessage('Measured colour mixing in use for camera and dropped frames.');
     if (state.current && !state.continuous) showEntry(state.current, { keepView: true });
   };
   $('refresh-stages').onclick = () => {
