@@ -156,6 +156,25 @@ pub fn simulator_crosstalk() -> Vec<f32> {
     sim::SimConfig::default().crosstalk.iter().flatten().copied().collect()
 }
 
+/// The camera's colour mixing (9 numbers, row-major) from four RGBA frames of a white
+/// card under the projector's full red, green, blue and black.
+#[wasm_bindgen(js_name = estimateCrosstalk)]
+pub fn estimate_crosstalk(
+    red: &[u8],
+    green: &[u8],
+    blue: &[u8],
+    black: &[u8],
+    width: u32,
+    height: u32,
+    camera_gamma: f32,
+) -> Result<Vec<f32>, JsError> {
+    let (w, h) = (width as usize, height as usize);
+    let frame = |rgba: &[u8]| crate::raster::from_rgba8(w, h, rgba).map_err(js_error);
+    let (r, g, b, k) = (frame(red)?, frame(green)?, frame(blue)?, frame(black)?);
+    let m = crate::calib::estimate_crosstalk([&r, &g, &b], &k, camera_gamma).map_err(js_error)?;
+    Ok(m.iter().flatten().copied().collect())
+}
+
 /// Decode PNG or JPEG bytes to RGBA (no colour management: the values as stored).
 #[wasm_bindgen(js_name = decodeImage)]
 pub fn decode_image(bytes: &[u8]) -> Result<RgbaImage, JsError> {

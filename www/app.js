@@ -655,6 +655,46 @@ async function scanLive(frame) {
   );
 }
 
+/** Use a measured colour-mixing matrix for camera and dropped frames. */
+function useMeasuredCrosstalk(values) {
+  state.measuredCrosstalk = values;
+  state.crosstalk = 'measured';
+  $('crosstalk').value = 'measured';
+  $('crosstalk-values').value = values.map((v) => v.toFixed(4)).join(',');
+  showMessage('Measured colour mixing in use for camera and dropped frames.');
+  if (state.current && !state.continuous) showEntry(state.current, { keepView: true });
+}
+
+/**
+ * The guided colour calibration: the projector shows full red, green, blue and black in
+ * turn on a white card, the camera captures each, and the worker turns the four frames
+ * into the camera's colour-mixing matrix. The pattern comes back afterwards.
+ */
+async function measureColourMixing() {
+  const win = state.projectorWindow;
+  if (!win || win.closed) throw new Error('Open the projector window first, then point the camera at a white card it lights.');
+  if (!camera.running) throw new Error('Start the camera first, pointed at a white card lit by the projector.');
+  const { width, height } = state.patternPixels;
+  const frames = [];
+  try {
+    for (const [label, rgb] of [['red', [255, 0, 0]], ['green', [0, 255, 0]], ['blue', [0, 0, 255]], ['black', [0, 0, 0]]]) {
+      const rgba = new Uint8ClampedArray(width * height * 4);
+      for (let i = 0; i < rgba.length; i += 4) rgba.set([...rgb, 255], i);
+      win.postMessage({ type: 'pattern', width, height, rgba, label: `colour calibration: ${label}` }, location.origin, [rgba.buffer]);
+      setStatus(`colour calibration: ${label}`);
+      // The projector redraws and the camera delivers a few frames in this time.
+      await new Promise((resolve) => setTimeout(resolve, 800));
+      frames.push(camera.capture());
+    }
+  } finally {
+    sendPatternToProjector();
+  }
+  const { width: w, height: h } = frames[0];
+  const values = await bridge.request('estimateCrosstalk', { frames: frames.map((f) => f.rgba), width: w, height: h });
+  useMeasuredCrosstalk(values);
+  setStatus('colour mixing measured');
+}
+
 /** The crosstalk setting for a kind of frame: simulated ones use the simulator's. */
 function crosstalkFor(kind) {
   return kind === 'sample' ? 'simulator' : state.crosstalk;
@@ -865,12 +905,9 @@ function bindControls() {
       showMessage(`Colour mixing needs 9 numbers, row by row; got ${values.length}.`, 'error');
       return;
     }
-    state.measuredCrosstalk = values;
-    state.crosstalk = 'measured';
-    $('crosstalk').value = 'measured';
-    showMessage('Measured colour mixing in use for camera and dropped frames.');
-    if (state.current && !state.continuous) showEntry(state.current, { keepView: true });
+    useMeasuredCrosstalk(values);
   };
+  $('measure-mixing').onclick = () => measureColourMixing().catch((e) => showMessage(e.message, 'error'));
   $('refresh-stages').onclick = () => {
     if (state.current) showEntry(state.current, { rescan: true, keepView: true });
   };

@@ -92,6 +92,10 @@ const handlers = {
   simulatorCrosstalk() {
     return { value: [...wasm.simulatorCrosstalk()] };
   },
+  estimateCrosstalk({ frames, width, height }) {
+    const [r, g, b, k] = frames.map(bytesOf);
+    return { value: [...wasm.estimateCrosstalk(r, g, b, k, width, height, 2.2)] };
+  },
   renderScene({ name, specJson, calibJson, seed }, id) {
     progress(id, `simulating the ${name} scene`);
     return image(wasm.renderScene(name, specJson, calibJson, seed >>> 0));

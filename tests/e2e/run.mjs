@@ -10,7 +10,9 @@
 //   5. screenshots of the viewer with a cloud and of the teaching view, in tests/screenshots/;
 //   6. the PLY and PFM exports follow conventions.md;
 //   7. the projector window shows the decoder's pattern pixel for pixel;
-//   8. a panic in a worker is reported and the page keeps working.
+//   8. a panic in a worker is reported and the page keeps working;
+//   9. the guided colour calibration asks for the projector and refuses frames without
+//      primaries (the fake camera cannot show them).
 // Prints one line per check and `N passed, M failed`; exits non-zero on failure.
 //
 //   node tests/e2e/run.mjs                   run the checks
@@ -452,6 +454,33 @@ async function main() {
     const count = Number(await page.getAttribute('#point-count', 'data-count'));
     assert(count > 1000, `after the restart a sample gave ${count} points`);
     return `"${error}"; afterwards ${count} points`;
+  });
+
+  await check('9 the guided colour calibration needs the projector and reads only real primaries', async () => {
+    // Without a projector window it says what to do first.
+    await page.click('#measure-mixing');
+    await waitForMessage(page, 'Open the projector window first');
+    // With the projector and the fake camera, whose picture never changes colour, the
+    // four frames show no primary: the measurement must refuse, not invent a matrix.
+    await context.grantPermissions(['camera'], { origin: server.base });
+    const [popup] = await Promise.all([page.waitForEvent('popup'), page.click('#open-projector')]);
+    await popup.waitForLoadState('load');
+    await page.click('#camera-start');
+    await page.waitForSelector('#capture:not([disabled])', { timeout: 30_000 });
+    await page.click('#measure-mixing');
+    await popup.waitForFunction(() => document.getElementById('hint-pattern').textContent.includes('colour calibration'), null, {
+      timeout: 10_000,
+    });
+    await waitForMessage(page, 'colour frames:');
+    const mode = await page.inputValue('#crosstalk');
+    assert(mode !== 'measured', 'a matrix was taken from frames without primaries');
+    // Afterwards the projector shows the pattern again.
+    await popup.waitForFunction(() => !document.getElementById('hint-pattern').textContent.includes('colour calibration'), null, {
+      timeout: 10_000,
+    });
+    await page.click('#camera-stop');
+    await popup.close();
+    return 'asked for the projector; refused frames without primaries; pattern restored';
   });
 
   // The GPU notes are SwiftShader's; the panic is check 6's own.
