@@ -45,13 +45,6 @@ pub const UNCHANGED_FRACTION: f32 = 0.33;
 /// See [`UNCHANGED_FRACTION`].
 pub const CHANGED_FRACTION: f32 = 0.6;
 
-/// An edge must have at least this fraction of the strongest edge strength within
-/// one and a half stripe periods. Another family's boundaries leak into a restored
-/// image with the squared cosine of the angle between the families (0.25 at 60
-/// degrees), so with 1/16 of the strength of this family's boundaries; a weak
-/// boundary of this family (one channel changing, against three) has 1/3.
-pub const RELATIVE_EDGE_STRENGTH: f32 = 0.12;
-
 /// Linear brightness (largest channel) below which a pixel counts as unlit: about
 /// 8-bit code 20 through gamma 2.2.
 pub const DARK_LEVEL: f32 = 0.0035;
@@ -171,7 +164,6 @@ impl Segmentation {
         sc.strength.resize(len, 0.0);
         sc.ok.resize(len, false);
         let mut run_id = 0u32;
-        let reach = (1.5 * period).round().max(2.0) as usize;
         for line in 0..nlines {
             let edges = &mut self.lines[line];
             edges.clear();
@@ -210,7 +202,7 @@ impl Segmentation {
                     let t = s as isize + k;
                     t < 0 || t >= len as isize || sc.strength[t as usize] <= b
                 };
-                if b >= MIN_EDGE_STRENGTH && b >= a && b > c && wider(-2) && wider(2) && b >= RELATIVE_EDGE_STRENGTH * local_max(&sc.strength, s, reach) {
+                if b >= MIN_EDGE_STRENGTH && b >= a && b > c && wider(-2) && wider(2) {
                     // Sub-pixel position from the linear-light gradient: camera blur
                     // acts on linear light, so a blurred step's linear gradient peaks
                     // at the step while its log gradient leans to the darker side.
@@ -232,13 +224,6 @@ impl Segmentation {
             edges.retain(|e| e.code != NOT_A_BOUNDARY);
         }
     }
-}
-
-/// Largest value of `v` within `reach` of `s`.
-fn local_max(v: &[f32], s: usize, reach: usize) -> f32 {
-    let lo = s.saturating_sub(reach);
-    let hi = (s + reach + 1).min(v.len());
-    v[lo..hi].iter().fold(0.0, |m, &x| m.max(x))
 }
 
 /// Mean of `signal` over the usable pixels strictly between positions `a` and `b`,

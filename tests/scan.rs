@@ -129,7 +129,7 @@ mod native {
         for scene in ["plane", "sphere", "paper", "textured", "occluders"] {
             let m = row(scene, 2, FilterMode::LogGrad).merged;
             assert!(m.rmse_mm < 1.0, "{scene}: {m:?}");
-            // The crumpled paper misses the 1 % target (1.3 % measured): its colour
+            // The crumpled paper misses the 1 % target (1.2 % measured): its colour
             // squares' edges run parallel to the stripes and pass for boundaries.
             let max_outliers = if scene == "paper" { 0.015 } else { 0.01 };
             assert!(m.outliers <= max_outliers, "{scene}: {m:?}");
