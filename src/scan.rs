@@ -446,7 +446,7 @@ impl Scanner {
                 r.points.push(point(i, z, self.merged_families[i]));
             }
         }
-        let mut decoded = Vec::with_capacity(families);
+        r.stats.decoded.clear();
         for k in 0..families {
             r.family_depth[k].pixels_mut().copy_from_slice(&self.depths[k]);
             let pts = &mut r.family_points[k];
@@ -456,17 +456,17 @@ impl Scanner {
                     pts.push(point(i, z, 1 << k));
                 }
             }
-            decoded.push(pts.len());
+            r.stats.decoded.push(pts.len());
         }
-        r.stats = ScanStats {
-            width: w,
-            height: h,
-            filter: self.config.filter.to_string(),
-            decoded,
-            merged: r.points.len(),
-            usable,
-            stage_ms: laps,
-        };
+        // Filled in place: the per-frame path reuses the stats' vectors and string.
+        let stats = &mut r.stats;
+        (stats.width, stats.height, stats.merged, stats.usable) = (w, h, r.points.len(), usable);
+        stats.filter.clear();
+        {
+            use std::fmt::Write;
+            let _ = write!(stats.filter, "{}", self.config.filter);
+        }
+        stats.stage_ms = laps;
         clock.lap("cloud", &mut r.stats.stage_ms);
         self.scanned = true;
         Ok(&self.result)

@@ -474,18 +474,22 @@ impl LogGradFilter {
     /// window around the dominant angle) with the largest criterion, or the dominant
     /// angle everywhere.
     fn compose(&self, r: &mut Restored, win: &FamilyWindow, per_pixel: bool) {
-        let candidates: Vec<(f32, f32, f32)> = PAPER_ANGLES_DEG
-            .iter()
-            .map(|d| d.to_radians())
-            .filter(|&a| angle_diff(a, r.dominant).abs() <= win.half_width * PER_PIXEL_FRACTION + 1e-4)
-            .map(|a| (a, (2.0 * a).cos(), (2.0 * a).sin()))
-            .collect();
+        // The candidate angles with cos 2φ and sin 2φ, in a fixed array (no allocation).
+        let mut buffer = [(0f32, 0f32, 0f32); PAPER_ANGLES_DEG.len()];
+        let mut count = 0;
+        for a in PAPER_ANGLES_DEG.iter().map(|d| d.to_radians()) {
+            if angle_diff(a, r.dominant).abs() <= win.half_width * PER_PIXEL_FRACTION + 1e-4 {
+                buffer[count] = (a, (2.0 * a).cos(), (2.0 * a).sin());
+                count += 1;
+            }
+        }
+        let candidates = &buffer[..count];
         let fixed = (r.dominant, (2.0 * r.dominant).cos(), (2.0 * r.dominant).sin());
         for i in 0..self.width * self.height {
             let (mut best, mut choice) = (f32::NEG_INFINITY, fixed);
             if per_pixel {
                 let m = [self.m[0][i], self.m[1][i], self.m[2][i], self.m[3][i], self.m[4][i], self.m[5][i]];
-                for &(a, al, be) in &candidates {
+                for &(a, al, be) in candidates {
                     let e = m[0] + 2.0 * al * m[1] + 2.0 * be * m[2] + al * al * m[3] + be * be * m[4] + 2.0 * al * be * m[5];
                     if e > best {
                         best = e;
