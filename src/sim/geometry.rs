@@ -250,13 +250,20 @@ impl HeightField {
         (i as usize, j as usize, gx - i as f64, gy - j as f64)
     }
 
+    /// The four heights of the cell holding (x, y), `[h00, h10, h01, h11]`, and the
+    /// fractions (fx, fy) within it.
+    #[inline(always)]
+    fn cell(&self, x: f64, y: f64) -> ([f64; 4], f64, f64) {
+        let (i, j, fx, fy) = self.locate(x, y);
+        let k = j * self.nx + i;
+        let h = [self.heights[k], self.heights[k + 1], self.heights[k + self.nx], self.heights[k + self.nx + 1]];
+        (h, fx, fy)
+    }
+
     /// `h` of the bilinear surface and its gradient at (x, y) (clamped into the sheet).
     #[inline]
     pub fn height(&self, x: f64, y: f64) -> (f64, DVec2) {
-        let (i, j, fx, fy) = self.locate(x, y);
-        let k = j * self.nx + i;
-        let (h00, h10) = (self.heights[k], self.heights[k + 1]);
-        let (h01, h11) = (self.heights[k + self.nx], self.heights[k + self.nx + 1]);
+        let ([h00, h10, h01, h11], fx, fy) = self.cell(x, y);
         let top = h00 + (h10 - h00) * fx;
         let bottom = h01 + (h11 - h01) * fx;
         let h = top + (bottom - top) * fy;
@@ -268,10 +275,7 @@ impl HeightField {
     /// `h` alone, as [`HeightField::height`] (the marching loop needs no gradient).
     #[inline(always)]
     fn height_only(&self, x: f64, y: f64) -> f64 {
-        let (i, j, fx, fy) = self.locate(x, y);
-        let k = j * self.nx + i;
-        let (h00, h10) = (self.heights[k], self.heights[k + 1]);
-        let (h01, h11) = (self.heights[k + self.nx], self.heights[k + self.nx + 1]);
+        let ([h00, h10, h01, h11], fx, fy) = self.cell(x, y);
         let top = h00 + (h10 - h00) * fx;
         let bottom = h01 + (h11 - h01) * fx;
         top + (bottom - top) * fy
