@@ -5,10 +5,10 @@
 //! `cargo run --release --example bench`
 
 use std::time::Instant;
-use stripelight::filter::{reference, FamilyWindow, LogGradFilter, Restored};
+use stripelight::filter::{reference, FamilyWindow, FilterMode, LogGradFilter, Restored};
 use stripelight::pattern::DEFAULT_STRIPE_WIDTH;
 use stripelight::raster::{rgb8_to_linear, Image};
-use stripelight::scan::{FilterMode, ScanConfig, Scanner};
+use stripelight::scan::{ScanConfig, Scanner};
 use stripelight::sim::{self, Scene, SimConfig};
 use stripelight::{Calibration, PatternSpec};
 

@@ -17,7 +17,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let spec = PatternSpec::generate(directions, calib.projector.width, calib.projector.height, DEFAULT_STRIPE_WIDTH)?;
     let cfg = SimConfig { seed: 1, projector_gamma: spec.encoding_gamma as f32, ..SimConfig::default() };
     let truth = sim::render(&Scene::builtin(&scene_name)?, &calib, &spec.render_rgb8(), &cfg)?;
-    let mut scanner = Scanner::new(spec, calib, ScanConfig { filter, keep_stages: true, crosstalk: cfg.crosstalk, ..ScanConfig::default() })?;
+    let mut scanner = Scanner::new(spec, calib, ScanConfig { filter, crosstalk: cfg.crosstalk, ..ScanConfig::default() })?;
     scanner.scan(&truth.image)?;
     let result = scanner.result().clone();
     let m = eval::measure(&result.depth, &truth);

@@ -498,6 +498,65 @@ mod tests {
     }
 }
 
+/// A camera's colour mixing: linear camera RGB = `M` · linear light of the projector's
+/// primaries; row = camera channel, column = projector primary.
+pub type Crosstalk = [[f32; 3]; 3];
+
+/// No colour mixing.
+pub const IDENTITY_CROSSTALK: Crosstalk = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+
+/// Least |determinant| of a colour-mixing matrix that the scanner inverts: below it the
+/// three primaries are not told apart (a real camera's is 0.3 to 1 after row scaling).
+pub const CROSSTALK_MIN_DETERMINANT: f32 = 1e-3;
+
+/// A colour-mixing matrix from 9 numbers, row by row (what `stripelight crosstalk`
+/// prints and the page's worker receives).
+pub fn crosstalk_from_values(values: &[f32]) -> Result<Crosstalk> {
+    let v: &[f32; 9] = values.try_into().map_err(|_| Error::Setting {
+        name: "crosstalk",
+        problem: format!("needs 9 numbers (3x3, row by row), got {}", values.len()),
+    })?;
+    let m = [[v[0], v[1], v[2]], [v[3], v[4], v[5]], [v[6], v[7], v[8]]];
+    crosstalk_inverse(&m)?;
+    Ok(m)
+}
+
+/// A colour-mixing matrix from text: 9 numbers, row by row, separated by commas,
+/// semicolons or white space.
+///
+/// ```
+/// let m = stripelight::calib::parse_crosstalk("0.9,0.1,0; 0.05 0.9 0.05, 0 0.1 0.9").unwrap();
+/// assert_eq!(m[1], [0.05, 0.9, 0.05]);
+/// assert!(stripelight::calib::parse_crosstalk("1,0,0").unwrap_err().to_string().contains("9 numbers"));
+/// ```
+pub fn parse_crosstalk(text: &str) -> Result<Crosstalk> {
+    let values = text
+        .split(|c: char| c == ',' || c == ';' || c.is_whitespace())
+        .filter(|t| !t.is_empty())
+        .map(|t| {
+            t.parse::<f32>().map_err(|_| Error::Setting { name: "crosstalk", problem: format!("{t:?} is not a number") })
+        })
+        .collect::<Result<Vec<f32>>>()?;
+    crosstalk_from_values(&values)
+}
+
+/// The inverse of a colour-mixing matrix (what the scanner applies to each pixel),
+/// `None` for the identity; fails when a value is not finite or the matrix cannot be
+/// inverted.
+pub fn crosstalk_inverse(m: &Crosstalk) -> Result<Option<glam::Mat3>> {
+    if m.iter().flatten().any(|x| !x.is_finite()) {
+        return Err(Error::Setting { name: "crosstalk", problem: format!("{m:?} has a value that is not a number") });
+    }
+    if *m == IDENTITY_CROSSTALK {
+        return Ok(None);
+    }
+    let mix = glam::Mat3::from_cols_array_2d(m).transpose();
+    if mix.determinant().abs() < CROSSTALK_MIN_DETERMINANT {
+        return Err(Error::Setting { name: "crosstalk", problem: format!("{m:?} cannot be inverted") });
+    }
+    Ok(Some(mix.inverse()))
+}
+
 /// Least fraction of a primary's frame that must be well exposed (neither dark nor
 /// saturated in any channel) for [`estimate_crosstalk`].
 const CROSSTALK_MIN_COVERAGE: f64 = 0.01;
@@ -513,7 +572,7 @@ pub fn estimate_crosstalk(
     primaries: [&crate::raster::Image<[u8; 3]>; 3],
     black: &crate::raster::Image<[u8; 3]>,
     gamma: f32,
-) -> Result<[[f32; 3]; 3]> {
+) -> Result<Crosstalk> {
     let size = black.size();
     for p in primaries {
         p.expect_size(size.0, size.1)?;
@@ -523,7 +582,7 @@ pub fn estimate_crosstalk(
     let mut count = 0usize;
     for i in 0..size.0 * size.1 {
         let frames = [primaries[0].pixels()[i], primaries[1].pixels()[i], primaries[2].pixels()[i]];
-        let usable = frames.iter().all(|p| p.iter().all(|&c| c < 250)) && frames.iter().all(|p| p.iter().any(|&c| c > 40));
+        let usable = frames.iter().all(|p| p.iter().all(|&c| c < crate::raster::SATURATED)) && frames.iter().all(|p| p.iter().any(|&c| c > 40));
         if !usable {
             continue;
         }
@@ -536,8 +595,8 @@ pub fn estimate_crosstalk(
         }
     }
     if (count as f64) < CROSSTALK_MIN_COVERAGE * (size.0 * size.1) as f64 {
-        return Err(Error::Invalid(format!(
-            "colour frames: only {count} pixels are well exposed under all three primaries; \
+        return Err(Error::ColourFrames(format!(
+            "only {count} pixels are well exposed under all three primaries; \
              point the camera at a white card lit by the projector and avoid saturation"
         )));
     }
@@ -545,7 +604,7 @@ pub fn estimate_crosstalk(
     for c in 0..3 {
         let row: f64 = sum[c].iter().sum();
         if row <= 0.0 {
-            return Err(Error::Invalid(format!("colour frames: camera channel {c} saw no projector light")));
+            return Err(Error::ColourFrames(format!("camera channel {c} saw no projector light")));
         }
         for k in 0..3 {
             m[c][k] = (sum[c][k] / row) as f32;

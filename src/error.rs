@@ -27,6 +27,22 @@ pub enum Error {
         /// What the image has (width, height).
         got: (usize, usize),
     },
+    /// A pixel buffer whose length does not fit the size it is said to have.
+    BufferLength {
+        /// The stated size (width, height).
+        size: (usize, usize),
+        /// Values per pixel (4 for RGBA bytes, 1 for a plane of floats).
+        per_pixel: usize,
+        /// The buffer's length.
+        got: usize,
+    },
+    /// An image smaller than a stage can work on.
+    ImageTooSmall {
+        /// The least (width, height).
+        min: (usize, usize),
+        /// What came.
+        got: (usize, usize),
+    },
     /// Bytes that are not a decodable image (or a PFM/PNG that is broken).
     ImageDecode(String),
     /// A file could not be read or written.
@@ -36,8 +52,34 @@ pub enum Error {
         /// The operating system's reason.
         reason: String,
     },
-    /// A request that makes no sense (unknown scene, bad option value, ...).
-    Invalid(String),
+    /// An input file holds something broken: which file, and the error inside it.
+    InFile {
+        /// The file.
+        path: String,
+        /// What is wrong with its content.
+        source: Box<Error>,
+    },
+    /// A setting out of its range or of the wrong form (a command-line option, a
+    /// scanner or pattern setting).
+    Setting {
+        /// The setting's name as the user gives it, e.g. `crosstalk`.
+        name: &'static str,
+        /// What is wrong with the value, and what would be right.
+        problem: String,
+    },
+    /// The pattern spec and the calibration describe different projectors.
+    ProjectorMismatch {
+        /// The pattern's projector size (width, height).
+        pattern: (u32, u32),
+        /// The calibration's projector size (width, height).
+        calibration: (u32, u32),
+    },
+    /// Frames for measuring the camera's colour mixing that cannot give it.
+    ColourFrames(String),
+    /// A simulator scene or simulator setting that cannot be rendered.
+    Scene(String),
+    /// A broken invariant inside the library (not the input's fault): please report it.
+    Internal(String),
 }
 
 impl fmt::Display for Error {
@@ -50,16 +92,45 @@ impl fmt::Display for Error {
                 "image is {}x{} but {}x{} was expected",
                 got.0, got.1, expected.0, expected.1
             ),
+            Error::BufferLength { size: (w, h), per_pixel, got } => write!(
+                f,
+                "{got} values cannot be a {w}x{h} image of {per_pixel} per pixel (expected {})",
+                w * h * per_pixel
+            ),
+            Error::ImageTooSmall { min, got } => {
+                write!(f, "image of {}x{} is too small (at least {}x{})", got.0, got.1, min.0, min.1)
+            }
             Error::ImageDecode(msg) => write!(f, "not a readable image: {msg}"),
             Error::Io { path, reason } => write!(f, "{path}: {reason}"),
-            Error::Invalid(msg) => f.write_str(msg),
+            Error::InFile { path, source } => write!(f, "{path}: {source}"),
+            Error::Setting { name, problem } => write!(f, "{name}: {problem}"),
+            Error::ProjectorMismatch { pattern, calibration } => write!(
+                f,
+                "the pattern is {}x{} but the calibration's projector is {}x{}: they must describe the same projector",
+                pattern.0, pattern.1, calibration.0, calibration.1
+            ),
+            Error::ColourFrames(msg) => write!(f, "colour frames: {msg}"),
+            Error::Scene(msg) => write!(f, "simulator: {msg}"),
+            Error::Internal(msg) => write!(f, "internal error (please report): {msg}"),
         }
     }
 }
 
-impl std::error::Error for Error {}
+impl std::error::Error for Error {
+    fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
+        match self {
+            Error::InFile { source, .. } => Some(source.as_ref()),
+            _ => None,
+        }
+    }
+}
 
 impl Error {
+    /// `self` as found in the file at `path`.
+    pub fn in_file(self, path: impl AsRef<std::path::Path>) -> Self {
+        Error::InFile { path: path.as_ref().display().to_string(), source: Box::new(self) }
+    }
+
     /// An I/O error on `path`.
     pub fn io(path: impl AsRef<std::path::Path>, err: std::io::Error) -> Self {
         Error::Io {

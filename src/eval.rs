@@ -12,7 +12,8 @@ use crate::calib::Calibration;
 use crate::error::Result;
 use crate::pattern::{PatternSpec, DEFAULT_STRIPE_WIDTH};
 use crate::raster::Image;
-use crate::scan::{FilterMode, ScanConfig, Scanner};
+use crate::filter::FilterMode;
+use crate::scan::{ScanConfig, Scanner};
 use crate::sim::{self, Frame, Scene, SimConfig};
 use serde::Serialize;
 

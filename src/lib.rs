@@ -5,22 +5,29 @@
 //! pattern of colour stripes in one, two or three directions; one camera frame of the
 //! lit scene gives a depth map and a point cloud.
 //!
-//! The modules follow the method in the order a reader meets it in the paper:
+//! The modules follow the method in the order a reader meets it in the paper. Each
+//! uses only the modules in its last column, and those never use it back: the crate's
+//! dependencies form no cycle (`tests/layering.rs` reads the `use` lines, fails on a
+//! cycle and checks this column).
 //!
-//! | stage | module |
-//! |---|---|
-//! | coded stripe patterns and their spec files | [`pattern`] |
-//! | log-gradient illumination restoration (eq. 5-8) | [`filter`] |
-//! | stripe boundaries and their colour transitions | [`segment`] |
-//! | stripe identification from neighbour windows | [`decode`] |
-//! | depth from a calibrated projector-camera pair | [`triangulate`] |
-//! | merging the range images of the families | [`merge`] |
-//! | point clouds and PLY | [`cloud`] |
-//! | the long-lived scanner that runs the stages per frame | [`scan`] |
-//! | projector-camera calibration and rays | [`calib`] |
-//! | projector-camera simulator with ground truth | [`sim`] |
-//! | accuracy against ground truth | [`eval`] |
-//! | images, PNG/PFM reading and writing | [`raster`], [`io`] |
+//! | stage | module | uses |
+//! |---|---|---|
+//! | coded stripe patterns and their spec files | [`pattern`] | error, raster |
+//! | log-gradient illumination restoration (eq. 5-8) | [`filter`] | error, raster |
+//! | stripe boundaries and their colour transitions | [`segment`] | filter, raster |
+//! | stripe identification from neighbour windows | [`decode`] | pattern, segment |
+//! | depth from a calibrated projector-camera pair | [`triangulate`] | calib, pattern |
+//! | merging the range images of the families | [`merge`] | |
+//! | point clouds as flat arrays, and PLY | [`cloud`] | error |
+//! | pictures of every stage, for people | [`stages`] | filter, raster, segment |
+//! | the long-lived scanner that runs the stages per frame | [`scan`] | calib, cloud, decode, error, filter, merge, pattern, raster, segment, stages, triangulate |
+//! | projector-camera calibration, rays and colour mixing | [`calib`] | error, raster |
+//! | projector-camera simulator with ground truth | [`sim`] | calib, error, raster |
+//! | accuracy against ground truth | [`eval`] | calib, error, filter, pattern, raster, scan, sim |
+//! | PNG/PFM reading and writing | [`io`] | error, raster |
+//! | images, gamma, pixel formats | [`raster`] | error |
+//! | the error type | [`error`] | |
+//! | the browser boundary (wasm32 only) | `wasm` | calib, cloud, error, filter, io, pattern, raster, scan, sim |
 //!
 //! Everything except `wasm` is plain Rust with no knowledge of the browser; the
 //! `wasm` module is the one thin boundary the web page talks to.

@@ -15,7 +15,8 @@ mod cli {
     use clap::{Parser, Subcommand};
     use std::path::{Path, PathBuf};
     use stripelight::error::Result;
-    use stripelight::scan::{FilterMode, ScanConfig, Scanner};
+    use stripelight::filter::FilterMode;
+    use stripelight::scan::{ScanConfig, Scanner};
     use stripelight::{io, Calibration, Error, PatternSpec};
 
     #[derive(Parser)]
@@ -191,17 +192,8 @@ mod cli {
         PatternSpec::from_json(&read_text(path)?).map_err(|e| prefix(path, e))
     }
 
-    fn parse_matrix(text: &str) -> Result<[[f32; 3]; 3]> {
-        let bad = || Error::Invalid(format!("--crosstalk needs 9 comma-separated numbers or `sim`, got {text:?}"));
-        let values: Vec<f32> = text.split(',').map(|v| v.trim().parse().map_err(|_| bad())).collect::<Result<_>>()?;
-        if values.len() != 9 {
-            return Err(bad());
-        }
-        Ok([[values[0], values[1], values[2]], [values[3], values[4], values[5]], [values[6], values[7], values[8]]])
-    }
-
     fn prefix(path: &Path, e: Error) -> Error {
-        Error::Invalid(format!("{}: {e}", path.display()))
+        e.in_file(path)
     }
 
     fn dispatch(command: Command) -> Result<()> {
@@ -226,13 +218,13 @@ mod cli {
                 let filter: FilterMode = filter.parse()?;
                 let frame = io::read_rgb8(&image)?;
                 let crosstalk = match crosstalk.as_deref() {
-                    None => stripelight::scan::IDENTITY_CROSSTALK,
+                    None => stripelight::calib::IDENTITY_CROSSTALK,
                     Some("sim") => stripelight::sim::SimConfig::default().crosstalk,
-                    Some(text) => parse_matrix(text)?,
+                    Some(text) => stripelight::calib::parse_crosstalk(text)?,
                 };
-                let config = ScanConfig { filter, camera_gamma, keep_stages: debug.is_some(), crosstalk, ..ScanConfig::default() };
+                let config = ScanConfig { filter, camera_gamma, crosstalk, ..ScanConfig::default() };
                 let mut scanner = Scanner::new(spec, calib, config)?;
-                let result = scanner.scan(&frame).map_err(|e| Error::Invalid(format!("{}: {e}", image.display())))?;
+                let result = scanner.scan(&frame).map_err(|e| prefix(&image, e))?;
                 let stats = &result.stats;
                 let families: Vec<String> = stats.decoded.iter().enumerate().map(|(k, n)| format!("family {k}: {n}")).collect();
                 eprintln!(
@@ -250,7 +242,7 @@ mod cli {
                     io::write_file(&path, &io::encode_pfm(&result.depth))?;
                 }
                 if let Some(path) = ply {
-                    io::write_file(&path, &stripelight::cloud::encode_ply(&result.points, ascii))?;
+                    io::write_file(&path, &stripelight::cloud::encode_ply(&result.cloud, ascii))?;
                 }
                 if let Some(dir) = debug {
                     std::fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;
@@ -289,7 +281,7 @@ mod cli {
             }
             Command::Calib { default, distorted, out } => {
                 if !default && !distorted {
-                    return Err(Error::Invalid("calib needs --default or --distorted".into()));
+                    return Err(Error::Setting { name: "calib", problem: "needs --default or --distorted".into() });
                 }
                 let calib = if distorted { Calibration::demo_distorted() } else { Calibration::demo() };
                 io::write_file(&out, calib.to_json().as_bytes())
@@ -301,10 +293,7 @@ mod cli {
                 let calib = load_calib(&calib)?;
                 let (pw, ph) = (calib.projector.width, calib.projector.height);
                 if (pattern.width, pattern.height) != (pw, ph) {
-                    return Err(Error::Invalid(format!(
-                        "the pattern is {}x{} but the calibration's projector is {pw}x{ph}",
-                        pattern.width, pattern.height
-                    )));
+                    return Err(Error::ProjectorMismatch { pattern: (pattern.width, pattern.height), calibration: (pw, ph) });
                 }
                 let cfg = sim::SimConfig {
                     projector_gamma: pattern.encoding_gamma as f32,

@@ -28,11 +28,11 @@ pub const MIN_SUPPORT: usize = 3;
 
 /// Merge per-family depth maps (NaN = none) with their weights into `out`, and the
 /// bit mask of contributing families into `families`.
-pub fn merge_into(depths: &[Vec<f32>], weights: &[Vec<f32>], out: &mut [f32], families: &mut [u8]) {
+pub fn merge_into<D: AsRef<[f32]>>(depths: &[D], weights: &[Vec<f32>], out: &mut [f32], families: &mut [u8]) {
     for i in 0..out.len() {
         let (mut sum, mut wsum, mut mask) = (0.0f64, 0.0f64, 0u8);
         for (k, (d, w)) in depths.iter().zip(weights).enumerate() {
-            let z = d[i];
+            let z = d.as_ref()[i];
             if z.is_nan() {
                 continue;
             }
@@ -47,7 +47,7 @@ pub fn merge_into(depths: &[Vec<f32>], weights: &[Vec<f32>], out: &mut [f32], fa
         }
         let z = (sum / wsum) as f32;
         let tol = agree_tolerance(z);
-        if depths.iter().any(|d| !d[i].is_nan() && (d[i] - z).abs() > tol) {
+        if depths.iter().any(|d| { let d = d.as_ref()[i]; !d.is_nan() && (d - z).abs() > tol }) {
             continue;
         }
         out[i] = z;

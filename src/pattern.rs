@@ -128,7 +128,7 @@ pub fn family_angles(directions: usize) -> Result<&'static [f64]> {
         1 => Ok(&[0.0]),
         2 => Ok(&[0.0, 90.0]),
         3 => Ok(&[-15.0, 45.0, 105.0]),
-        n => Err(Error::Invalid(format!("directions must be 1, 2 or 3, got {n}"))),
+        n => Err(Error::Setting { name: "directions", problem: format!("must be 1, 2 or 3, got {n}") }),
     }
 }
 
@@ -229,10 +229,16 @@ impl PatternSpec {
     pub fn generate(directions: usize, width: u32, height: u32, stripe_width: f64) -> Result<Self> {
         let angles = family_angles(directions)?;
         if width == 0 || height == 0 || width > 16384 || height > 16384 {
-            return Err(Error::Invalid(format!("projector size {width}x{height} is not in 1..=16384")));
+            return Err(Error::Setting {
+                name: "projector size",
+                problem: format!("{width}x{height} is not in 1..=16384 on each side"),
+            });
         }
         if !(stripe_width.is_finite() && stripe_width >= 2.0) {
-            return Err(Error::Invalid(format!("stripe width must be at least 2 pixels, got {stripe_width}")));
+            return Err(Error::Setting {
+                name: "stripe width",
+                problem: format!("must be at least 2 pixels, got {stripe_width}"),
+            });
         }
         let mut families = Vec::new();
         for &angle in angles {
@@ -250,7 +256,10 @@ impl PatternSpec {
         let needed = families.iter().map(|f| f.count).max().unwrap_or(0);
         let (window, sequence) = (3..=8)
             .find_map(|w| windowed_sequence(needed, w).map(|s| (w, s)))
-            .ok_or_else(|| Error::Invalid(format!("no windowed sequence of {needed} stripes found")))?;
+            .ok_or_else(|| Error::Setting {
+                name: "stripe width",
+                problem: format!("{needed} stripes are more than any window of up to 8 makes unique"),
+            })?;
         let low = [0.25, 0.35, 0.45][directions - 1];
         Ok(PatternSpec {
             format: SPEC_FORMAT.into(),

@@ -17,6 +17,22 @@ pub struct Image<T> {
 /// Three linear colour channels per pixel.
 pub type Rgb = [f32; 3];
 
+/// 8-bit camera value from which a channel counts as clipped (saturated). A little
+/// below 255 because webcams' tone curves and JPEG ringing rarely reach 255 exactly.
+/// The page's exposure meter (`www/camera.js`) uses the same level.
+pub const SATURATED: u8 = 250;
+
+/// The table from 8-bit camera values to linear light in 0..=1 through a power law
+/// `gamma`: `linear = (value / 255)^gamma` (2.2 for the simulator's camera and most
+/// webcams; 1.0 keeps values as they are).
+pub fn gamma_lut(gamma: f32) -> [f32; 256] {
+    let mut lut = [0f32; 256];
+    for (i, l) in lut.iter_mut().enumerate() {
+        *l = (i as f32 / 255.0).powf(gamma);
+    }
+    lut
+}
+
 impl<T: Clone> Image<T> {
     /// An image filled with `value`.
     ///
@@ -38,6 +54,12 @@ impl<T: Clone> Image<T> {
     }
 }
 
+impl<T> AsRef<[T]> for Image<T> {
+    fn as_ref(&self) -> &[T] {
+        &self.data
+    }
+}
+
 impl<T: Copy> Image<T> {
     /// The pixel at column `u`, row `v`. Panics when out of range (a programming error).
     #[inline]
@@ -50,10 +72,7 @@ impl<T> Image<T> {
     /// Wrap a row-major buffer; fails when its length is not `width * height`.
     pub fn from_vec(width: usize, height: usize, data: Vec<T>) -> Result<Self> {
         if data.len() != width * height {
-            return Err(Error::Invalid(format!(
-                "buffer of {} pixels cannot be a {width}x{height} image",
-                data.len()
-            )));
+            return Err(Error::BufferLength { size: (width, height), per_pixel: 1, got: data.len() });
         }
         Ok(Image {
             width,
@@ -134,14 +153,11 @@ impl<T> Image<T> {
 /// 8-bit sRGB-ish camera values to linear floats in 0..=1 through a power law
 /// `gamma` (2.2 for the simulator's camera and most webcams; 1.0 keeps values as they are).
 pub fn rgb8_to_linear(src: &Image<[u8; 3]>, gamma: f32, dst: &mut Image<Rgb>) {
-    let mut lut = [0f32; 256];
-    for (i, l) in lut.iter_mut().enumerate() {
-        *l = (i as f32 / 255.0).powf(gamma);
-    }
-    rgb8_to_linear_lut(src, &lut, dst);
+    rgb8_to_linear_lut(src, &gamma_lut(gamma), dst);
 }
 
-fn rgb8_to_linear_lut(src: &Image<[u8; 3]>, lut: &[f32; 256], dst: &mut Image<Rgb>) {
+/// [`rgb8_to_linear`] with a table from [`gamma_lut`] made once (the per-frame form).
+pub fn rgb8_to_linear_lut(src: &Image<[u8; 3]>, lut: &[f32; 256], dst: &mut Image<Rgb>) {
     debug_assert_eq!(src.size(), dst.size());
     for (d, s) in dst.pixels_mut().iter_mut().zip(src.pixels()) {
         *d = [lut[s[0] as usize], lut[s[1] as usize], lut[s[2] as usize]];
@@ -156,13 +172,29 @@ pub fn linear_to_rgb8(src: &Image<Rgb>, gamma: f32) -> Image<[u8; 3]> {
 
 /// Interleaved RGBA bytes (a canvas `ImageData`) to an RGB image.
 pub fn from_rgba8(width: usize, height: usize, rgba: &[u8]) -> Result<Image<[u8; 3]>> {
+    let mut out = Image::new(width, height, [0; 3]);
+    rgba8_into(rgba, &mut out)?;
+    Ok(out)
+}
+
+/// [`from_rgba8`] into an image of the right size (the per-frame form): fails when
+/// `rgba` does not hold exactly 4 bytes for each of `dst`'s pixels.
+pub fn rgba8_into(rgba: &[u8], dst: &mut Image<[u8; 3]>) -> Result<()> {
+    let (width, height) = dst.size();
     if rgba.len() != width * height * 4 {
-        return Err(Error::Invalid(format!(
-            "{} RGBA bytes cannot be a {width}x{height} image (expected {})",
-            rgba.len(),
-            width * height * 4
-        )));
+        return Err(Error::BufferLength { size: (width, height), per_pixel: 4, got: rgba.len() });
     }
-    let data = rgba.chunks_exact(4).map(|p| [p[0], p[1], p[2]]).collect();
-    Image::from_vec(width, height, data)
+    for (d, s) in dst.pixels_mut().iter_mut().zip(rgba.chunks_exact(4)) {
+        *d = [s[0], s[1], s[2]];
+    }
+    Ok(())
+}
+
+/// An RGB image as interleaved RGBA bytes with alpha 255 (what a canvas shows).
+pub fn to_rgba8(src: &Image<[u8; 3]>) -> Vec<u8> {
+    let mut out = Vec::with_capacity(src.pixels().len() * 4);
+    for p in src.pixels() {
+        out.extend_from_slice(&[p[0], p[1], p[2], 255]);
+    }
+    out
 }

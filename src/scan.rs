@@ -7,57 +7,19 @@
 //! [`crate::decode`] (stripe identities from neighbour windows), [`crate::triangulate`]
 //! (depth per family, ray-ray where two families meet) and [`crate::merge`].
 
-use crate::calib::Calibration;
-use crate::cloud::CloudPoint;
+use crate::calib::{crosstalk_inverse, Calibration, Crosstalk, IDENTITY_CROSSTALK};
+use crate::cloud::Cloud;
 use crate::decode::Decoder;
 use crate::error::{Error, Result};
-use crate::filter::{FamilyWindow, LogGradFilter, Restored};
+use crate::filter::{FamilyWindow, FilterMode, LogGradFilter, Restored};
 use crate::merge;
 use crate::pattern::PatternSpec;
-use crate::raster::{Image, Rgb};
+use crate::raster::{gamma_lut, rgb8_to_linear_lut, rgba8_into, Image, Rgb};
 use crate::segment::{usable_mask_into, ScanAxis, Segmentation};
+use crate::stages::{Stage, StageInputs};
 use crate::triangulate::Triangulator;
 use glam::DVec3;
 use serde::Serialize;
-use std::fmt;
-use std::str::FromStr;
-
-/// How the captured colours are turned into stripe colours.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
-pub enum FilterMode {
-    /// The captured colours as they are (the paper's "direct estimation").
-    Direct,
-    /// Log-gradient restoration with the per-pixel best angle (paper eq. 5-8, section 4).
-    #[default]
-    LogGrad,
-    /// Log-gradient restoration at each family's dominant angle only, no per-pixel
-    /// rotation (the paper's Fig. 4(b), a teaching comparison).
-    LogGradNoRotation,
-}
-
-impl FromStr for FilterMode {
-    type Err = Error;
-    fn from_str(s: &str) -> Result<Self> {
-        match s {
-            "direct" => Ok(FilterMode::Direct),
-            "loggrad" => Ok(FilterMode::LogGrad),
-            "loggrad-norot" => Ok(FilterMode::LogGradNoRotation),
-            other => Err(Error::Invalid(format!(
-                "filter must be direct, loggrad or loggrad-norot, got {other:?}"
-            ))),
-        }
-    }
-}
-
-impl fmt::Display for FilterMode {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(match self {
-            FilterMode::Direct => "direct",
-            FilterMode::LogGrad => "loggrad",
-            FilterMode::LogGradNoRotation => "loggrad-norot",
-        })
-    }
-}
 
 /// Settings of a scanner.
 #[derive(Clone, Debug)]
@@ -67,30 +29,23 @@ pub struct ScanConfig {
     /// The camera's encoding gamma: 8-bit value = 255 · linear^(1/gamma). 2.2 suits
     /// the simulator and most webcams.
     pub camera_gamma: f32,
-    /// Keep the intermediate images of the last frame for [`Scanner::stages`]
-    /// (costs a little time per frame; the teaching view and `--debug` turn it on).
-    pub keep_stages: bool,
     /// The camera's colour mixing: linear camera RGB = `crosstalk` · linear light of
     /// the projector's primaries (row = camera channel). Measured once per rig by
     /// projecting pure red, green and blue onto a white card; the identity when
     /// unknown. The scanner undoes it before anything else: on saturated surfaces a
     /// bright channel leaking into a dark one would otherwise fake transitions.
-    pub crosstalk: [[f32; 3]; 3],
+    pub crosstalk: Crosstalk,
     /// A clock in milliseconds for the per-stage timings in [`ScanStats::stage_ms`]:
     /// the operating system's natively, none in WebAssembly unless the boundary gives
     /// one (the pipeline itself knows nothing of the browser).
     pub clock: Option<fn() -> f64>,
 }
 
-/// No colour mixing.
-pub const IDENTITY_CROSSTALK: [[f32; 3]; 3] = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
-
 impl Default for ScanConfig {
     fn default() -> Self {
         ScanConfig {
             filter: FilterMode::LogGrad,
             camera_gamma: 2.2,
-            keep_stages: false,
             crosstalk: IDENTITY_CROSSTALK,
             #[cfg(not(target_arch = "wasm32"))]
             clock: Some(native_clock),
@@ -147,30 +102,33 @@ pub fn native_clock() -> f64 {
     ORIGIN.get_or_init(std::time::Instant::now).elapsed().as_secs_f64() * 1000.0
 }
 
-/// What a scan produces.
+/// What a scan produces. The scanner writes every part in place, frame after frame,
+/// into buffers it made once; nothing here is a copy of something else.
 #[derive(Clone, Debug, Default)]
 pub struct ScanResult {
-    /// The merged cloud.
-    pub points: Vec<CloudPoint>,
-    /// Each family's own cloud.
-    pub family_points: Vec<Vec<CloudPoint>>,
+    /// The merged cloud (family masks say which families measured each point).
+    pub cloud: Cloud,
+    /// Each family's own cloud (family mask `1 << k`).
+    pub family_clouds: Vec<Cloud>,
     /// Merged depth (Z, mm, camera frame) per camera pixel; NaN where none.
     pub depth: Image<f32>,
-    /// Each family's depth map.
+    /// Each family's depth map, the same way.
     pub family_depth: Vec<Image<f32>>,
     /// Figures about the scan.
     pub stats: ScanStats,
 }
 
-/// A named intermediate image for people to look at.
-#[derive(Clone, Debug)]
-pub struct Stage {
-    /// Short file-name-friendly name, e.g. `restored-0`.
-    pub name: String,
-    /// What it shows, one sentence.
-    pub caption: String,
-    /// The picture.
-    pub image: Image<[u8; 3]>,
+impl ScanResult {
+    /// The cloud of a layer: `None` for the merged cloud, `Some(k)` for family k's.
+    pub fn layer(&self, family: Option<usize>) -> Result<&Cloud> {
+        match family {
+            None => Ok(&self.cloud),
+            Some(k) => self.family_clouds.get(k).ok_or_else(|| Error::Setting {
+                name: "layer",
+                problem: format!("family {k} does not exist (the pattern has {})", self.family_clouds.len()),
+            }),
+        }
+    }
 }
 
 /// The long-lived scanner for one (pattern, calibration, frame size). Everything the
@@ -184,6 +142,8 @@ pub struct Scanner {
     lut: [f32; 256],
     /// Inverse of the crosstalk matrix, `None` for the identity.
     unmix: Option<glam::Mat3>,
+    /// Inputs of the last frame and the stages' working buffers, kept for
+    /// [`Scanner::stages`] (they are needed anyway: keeping them costs nothing).
     frame: Image<[u8; 3]>,
     linear: Image<Rgb>,
     usable: Vec<bool>,
@@ -195,9 +155,7 @@ pub struct Scanner {
     decoders: Vec<Decoder>,
     coords: Vec<Vec<f32>>,
     triangulator: Triangulator,
-    depths: Vec<Vec<f32>>,
     weights: Vec<Vec<f32>>,
-    merged: Vec<f32>,
     merged_families: Vec<u8>,
     scratch: Vec<f32>,
     result: ScanResult,
@@ -272,34 +230,19 @@ impl Scanner {
     pub fn new(spec: PatternSpec, calib: Calibration, config: ScanConfig) -> Result<Scanner> {
         spec.validate()?;
         calib.validate()?;
-        if (spec.width, spec.height) != (calib.projector.width, calib.projector.height) {
-            return Err(Error::Invalid(format!(
-                "the pattern is {}x{} but the calibration's projector is {}x{}: they must describe the same projector",
-                spec.width, spec.height, calib.projector.width, calib.projector.height
-            )));
+        let projector = (calib.projector.width, calib.projector.height);
+        if (spec.width, spec.height) != projector {
+            return Err(Error::ProjectorMismatch { pattern: (spec.width, spec.height), calibration: projector });
         }
         if !(config.camera_gamma.is_finite() && (0.2..=5.0).contains(&config.camera_gamma)) {
-            return Err(Error::Invalid(format!("camera gamma must be in 0.2..=5, got {}", config.camera_gamma)));
+            return Err(Error::Setting { name: "camera gamma", problem: format!("must be in 0.2..=5, got {}", config.camera_gamma) });
         }
         let (w, h) = (calib.camera.width as usize, calib.camera.height as usize);
-        if config.crosstalk.iter().flatten().any(|x| !x.is_finite()) {
-            return Err(Error::Invalid("crosstalk matrix has a value that is not a number".into()));
-        }
-        let mix = glam::Mat3::from_cols_array_2d(&config.crosstalk).transpose();
-        let unmix = if config.crosstalk == IDENTITY_CROSSTALK {
-            None
-        } else if mix.determinant().abs() < 1e-3 {
-            return Err(Error::Invalid(format!("crosstalk matrix {:?} cannot be inverted", config.crosstalk)));
-        } else {
-            Some(mix.inverse())
-        };
+        let unmix = crosstalk_inverse(&config.crosstalk)?;
         let predictions = predict_families(&spec, &calib)?;
         let windows = FamilyWindow::for_families(&predictions.iter().map(|p| p.angle).collect::<Vec<_>>());
         let n = spec.families.len();
-        let mut lut = [0f32; 256];
-        for (i, l) in lut.iter_mut().enumerate() {
-            *l = (i as f32 / 255.0).powf(config.camera_gamma);
-        }
+        let lut = gamma_lut(config.camera_gamma);
         let decoders = predictions.iter().enumerate().map(|(k, p)| Decoder::new(&spec, k, p.increasing)).collect();
         let triangulator = Triangulator::new(&calib, &spec);
         let plane = || vec![f32::NAN; w * h];
@@ -308,9 +251,7 @@ impl Scanner {
             restored: (0..n).map(|_| Restored::new(w, h)).collect(),
             segmentations: (0..n).map(|_| Segmentation::default()).collect(),
             coords: (0..n).map(|_| plane()).collect(),
-            depths: (0..n).map(|_| plane()).collect(),
             weights: (0..n).map(|_| plane()).collect(),
-            merged: plane(),
             merged_families: vec![0; w * h],
             scratch: Vec::with_capacity(w * h),
             frame: Image::new(w, h, [0; 3]),
@@ -319,7 +260,7 @@ impl Scanner {
             result: ScanResult {
                 depth: Image::new(w, h, f32::NAN),
                 family_depth: (0..n).map(|_| Image::new(w, h, f32::NAN)).collect(),
-                family_points: vec![Vec::new(); n],
+                family_clouds: vec![Cloud::default(); n],
                 ..Default::default()
             },
             spec,
@@ -367,26 +308,12 @@ impl Scanner {
         self.config.filter = filter;
     }
 
-    /// Keep (or stop keeping) what [`Scanner::stages`] needs.
-    pub fn set_keep_stages(&mut self, keep: bool) {
-        self.config.keep_stages = keep;
-    }
-
     /// Scan an interleaved RGBA frame (a canvas's `ImageData`).
     pub fn scan_rgba(&mut self, width: usize, height: usize, rgba: &[u8]) -> Result<&ScanResult> {
         if (width, height) != (self.width, self.height) {
             return Err(Error::ImageSize { expected: (self.width, self.height), got: (width, height) });
         }
-        if rgba.len() != width * height * 4 {
-            return Err(Error::Invalid(format!(
-                "{} RGBA bytes cannot be a {width}x{height} frame (expected {})",
-                rgba.len(),
-                width * height * 4
-            )));
-        }
-        for (d, s) in self.frame.pixels_mut().iter_mut().zip(rgba.chunks_exact(4)) {
-            *d = [s[0], s[1], s[2]];
-        }
+        rgba8_into(rgba, &mut self.frame)?;
         self.scan_own_frame()
     }
 
@@ -402,9 +329,7 @@ impl Scanner {
         let mut clock = StageClock::start(self.config.clock);
         let mut laps = std::mem::take(&mut self.result.stats.stage_ms);
         laps.clear();
-        for (d, s) in self.linear.pixels_mut().iter_mut().zip(self.frame.pixels()) {
-            *d = [self.lut[s[0] as usize], self.lut[s[1] as usize], self.lut[s[2] as usize]];
-        }
+        rgb8_to_linear_lut(&self.frame, &self.lut, &mut self.linear);
         if let Some(m) = self.unmix {
             for p in self.linear.pixels_mut() {
                 *p = (m * glam::Vec3::from_array(*p)).max(glam::Vec3::ZERO).to_array();
@@ -415,6 +340,7 @@ impl Scanner {
         self.filter.run(&self.linear, &self.windows, self.config.filter, &mut self.restored)?;
         clock.lap("filter", &mut laps);
         let families = self.spec.families.len();
+        let r = &mut self.result;
         for k in 0..families {
             let pred = self.predictions[k];
             self.segmentations[k].run(&self.restored[k], &self.usable, pred.axis, pred.period);
@@ -422,45 +348,35 @@ impl Scanner {
             self.decoders[k].run(&mut self.segmentations[k]);
             self.decoders[k].stripe_coords_into(&self.segmentations[k], w, MAX_STRIPE_PERIODS * pred.period, &mut self.coords[k]);
             clock.lap("decode", &mut laps);
-            self.triangulator.family_depth_into(k, &self.coords[k], &mut self.depths[k], &mut self.weights[k]);
+            let depth = r.family_depth[k].pixels_mut();
+            self.triangulator.family_depth_into(k, &self.coords[k], depth, &mut self.weights[k]);
             clock.lap("triangulate", &mut laps);
-            merge::remove_isolated(&mut self.depths[k], w, h, &mut self.scratch);
+            merge::remove_isolated(depth, w, h, &mut self.scratch);
             clock.lap("merge", &mut laps);
         }
-        merge::merge_into(&self.depths, &self.weights, &mut self.merged, &mut self.merged_families);
-        merge::remove_isolated(&mut self.merged, w, h, &mut self.scratch);
+        merge::merge_into(&r.family_depth, &self.weights, r.depth.pixels_mut(), &mut self.merged_families);
+        merge::remove_isolated(r.depth.pixels_mut(), w, h, &mut self.scratch);
         clock.lap("merge", &mut laps);
 
-        let r = &mut self.result;
-        r.depth.pixels_mut().copy_from_slice(&self.merged);
-        r.points.clear();
         let frame = self.frame.pixels();
-        let point = |i: usize, z: f32, families: u8| CloudPoint {
-            position: self.triangulator.point(i, z),
-            color: frame[i],
-            pixel: [(i % w) as f32, (i / w) as f32],
-            families,
-        };
-        for (i, &z) in self.merged.iter().enumerate() {
-            if !z.is_nan() {
-                r.points.push(point(i, z, self.merged_families[i]));
-            }
-        }
-        r.stats.decoded.clear();
-        for k in 0..families {
-            r.family_depth[k].pixels_mut().copy_from_slice(&self.depths[k]);
-            let pts = &mut r.family_points[k];
-            pts.clear();
-            for (i, &z) in self.depths[k].iter().enumerate() {
+        let triangulator = &self.triangulator;
+        let fill = |cloud: &mut Cloud, depth: &Image<f32>, families: &dyn Fn(usize) -> u8| {
+            cloud.clear();
+            for (i, &z) in depth.pixels().iter().enumerate() {
                 if !z.is_nan() {
-                    pts.push(point(i, z, 1 << k));
+                    cloud.push(triangulator.point(i, z), frame[i], [(i % w) as f32, (i / w) as f32], families(i));
                 }
             }
-            r.stats.decoded.push(pts.len());
+        };
+        fill(&mut r.cloud, &r.depth, &|i| self.merged_families[i]);
+        r.stats.decoded.clear();
+        for k in 0..families {
+            fill(&mut r.family_clouds[k], &r.family_depth[k], &|_| 1 << k);
+            r.stats.decoded.push(r.family_clouds[k].len());
         }
         // Filled in place: the per-frame path reuses the stats' vectors and string.
         let stats = &mut r.stats;
-        (stats.width, stats.height, stats.merged, stats.usable) = (w, h, r.points.len(), usable);
+        (stats.width, stats.height, stats.merged, stats.usable) = (w, h, r.cloud.len(), usable);
         stats.filter.clear();
         {
             use std::fmt::Write;
@@ -499,7 +415,15 @@ impl Scanner {
         if !self.scanned {
             return Vec::new();
         }
-        crate::stages::render(self)
+        crate::stages::render(&StageInputs {
+            frame: &self.frame,
+            filter: self.config.filter,
+            restored: &self.restored,
+            segmentations: &self.segmentations,
+            stripe_coords: &self.coords,
+            family_depth: &self.result.family_depth,
+            depth: &self.result.depth,
+        })
     }
 
     /// The 8-bit frame of the last scan.

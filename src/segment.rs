@@ -18,6 +18,7 @@
 //! saturated in any channel break a scan line.
 
 use crate::filter::Restored;
+use crate::raster::SATURATED;
 
 /// A code in {-1, 0, +1}³ packed as a base-3 number, `(r+1)·9 + (g+1)·3 + (b+1)`.
 /// [`NO_CODE`] marks a boundary whose transition could not be read.
@@ -49,8 +50,6 @@ pub const CHANGED_FRACTION: f32 = 0.6;
 /// 8-bit code 20 through gamma 2.2.
 pub const DARK_LEVEL: f32 = 0.0035;
 
-/// 8-bit value from which a channel counts as saturated.
-pub const SATURATED: u8 = 250;
 
 /// Pack a transition.
 pub fn pack(t: [i8; 3]) -> Code {

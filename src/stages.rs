@@ -1,9 +1,39 @@
 //! Pictures of every stage of a scan, for people: the teaching view of the web page
 //! and `stripelight scan --debug DIR`.
 
+use crate::filter::{FilterMode, Restored};
 use crate::raster::Image;
-use crate::scan::{Scanner, Stage};
-use crate::segment::NO_CODE;
+use crate::segment::{Segmentation, NO_CODE};
+
+/// A named intermediate image for people to look at.
+#[derive(Clone, Debug)]
+pub struct Stage {
+    /// Short file-name-friendly name, e.g. `restored-0`.
+    pub name: String,
+    /// What it shows, one sentence.
+    pub caption: String,
+    /// The picture.
+    pub image: Image<[u8; 3]>,
+}
+
+/// What one frame's stages are drawn from: the frame and every stage's output, as the
+/// scanner keeps them (see `Scanner::stages`).
+pub struct StageInputs<'a> {
+    /// The 8-bit camera frame.
+    pub frame: &'a Image<[u8; 3]>,
+    /// The filter that restored the families.
+    pub filter: FilterMode,
+    /// Each family's restored image.
+    pub restored: &'a [Restored],
+    /// Each family's boundaries.
+    pub segmentations: &'a [Segmentation],
+    /// Each family's stripe coordinate per pixel (NaN = none).
+    pub stripe_coords: &'a [Vec<f32>],
+    /// Each family's depth, mm.
+    pub family_depth: &'a [Image<f32>],
+    /// The merged depth, mm.
+    pub depth: &'a Image<f32>,
+}
 
 /// A hue in [0, 1) at full saturation as 8-bit RGB.
 fn hue(h: f32, value: f32) -> [u8; 3] {
@@ -18,6 +48,11 @@ fn hue(h: f32, value: f32) -> [u8; 3] {
         _ => (1.0, 0.0, x),
     };
     [r, g, b].map(|c: f32| (c * value * 255.0).round() as u8)
+}
+
+/// Pixels with a depth.
+fn decoded(depth: &[f32]) -> usize {
+    depth.iter().filter(|z| !z.is_nan()).count()
 }
 
 /// Depth in mm to a colour: near red through green to far blue over the range of the
@@ -35,16 +70,15 @@ fn depth_picture(depth: &[f32], w: usize, h: usize) -> Image<[u8; 3]> {
     Image::from_vec(w, h, data).unwrap_or_else(|_| Image::new(w, h, [0, 0, 0]))
 }
 
-/// Render the stages of the scanner's last frame.
-pub fn render(scanner: &Scanner) -> Vec<Stage> {
-    let (w, h) = scanner.size();
+/// Draw the stages of one frame.
+pub fn render(inputs: &StageInputs) -> Vec<Stage> {
+    let (w, h) = inputs.frame.size();
     let mut out = vec![Stage {
         name: "input".into(),
         caption: "The camera frame.".into(),
-        image: scanner.frame().clone(),
+        image: inputs.frame.clone(),
     }];
-    let result = scanner.result();
-    for (k, restored) in scanner.restored().iter().enumerate() {
+    for (k, restored) in inputs.restored.iter().enumerate() {
         // Restored log colour: zero mean, about ±1 for the palette's steps.
         let data = (0..w * h)
             .map(|i| {
@@ -57,7 +91,7 @@ pub fn render(scanner: &Scanner) -> Vec<Stage> {
             name: format!("restored-{k}"),
             caption: format!(
                 "Family {k}: restored stripe colours (log scale, {}); dominant direction {:.0} degrees.",
-                scanner.config().filter,
+                inputs.filter,
                 restored.dominant.to_degrees()
             ),
             image: restored_img.clone(),
@@ -71,7 +105,7 @@ pub fn render(scanner: &Scanner) -> Vec<Stage> {
         // Segmentation: boundaries over the dimmed restored image; white identified,
         // orange read but not identified, grey unreadable.
         let mut seg_img = restored_img.map(|p| p.map(|c| c / 3));
-        let seg = &scanner.segmentations()[k];
+        let seg = &inputs.segmentations[k];
         if let Some(axis) = seg.axis {
             for (line, edges) in seg.lines.iter().enumerate() {
                 for e in edges {
@@ -93,7 +127,7 @@ pub fn render(scanner: &Scanner) -> Vec<Stage> {
             caption: format!("Family {k}: stripe boundaries (white identified, orange read but not identified, grey unreadable)."),
             image: seg_img,
         });
-        let coords = &scanner.stripe_coords()[k];
+        let coords = &inputs.stripe_coords[k];
         let ids = coords
             .iter()
             .map(|&q| {
@@ -110,16 +144,18 @@ pub fn render(scanner: &Scanner) -> Vec<Stage> {
             caption: format!("Family {k}: stripe identities in false colour (brightness ramps across each stripe)."),
             image: Image::from_vec(w, h, ids).unwrap_or_else(|_| Image::new(w, h, [0, 0, 0])),
         });
+        let depth = inputs.family_depth[k].pixels();
         out.push(Stage {
             name: format!("depth-{k}"),
-            caption: format!("Family {k}: depth (near red, far blue), {} points.", result.stats.decoded.get(k).copied().unwrap_or(0)),
-            image: depth_picture(result.family_depth[k].pixels(), w, h),
+            caption: format!("Family {k}: depth (near red, far blue), {} points.", decoded(depth)),
+            image: depth_picture(depth, w, h),
         });
     }
+    let depth = inputs.depth.pixels();
     out.push(Stage {
         name: "depth-merged".into(),
-        caption: format!("Merged depth, {} points.", result.stats.merged),
-        image: depth_picture(result.depth.pixels(), w, h),
+        caption: format!("Merged depth, {} points.", decoded(depth)),
+        image: depth_picture(depth, w, h),
     });
     out
 }

@@ -7,18 +7,21 @@
 //! documented there.
 //!
 //! Images cross the boundary as interleaved RGBA bytes (what a canvas `ImageData`
-//! holds); clouds as parallel flat arrays, one entry per point: positions `x, y, z`
-//! (mm, camera frame), colours `r, g, b`, camera pixels `u, v` and family bit masks.
+//! holds); clouds as the scanner's own flat arrays ([`crate::cloud::Cloud`]), one entry
+//! per point: positions `x, y, z` (mm, camera frame), colours `r, g, b`, camera pixels
+//! `u, v` and family bit masks. Each result array is copied exactly once, from the
+//! scanner's buffers into a new JavaScript typed array the worker then transfers.
 
-use crate::calib::{ApproxRig, Calibration};
-use crate::cloud::{encode_ply, CloudPoint};
+use crate::calib::{crosstalk_from_values, parse_crosstalk, ApproxRig, Calibration, IDENTITY_CROSSTALK};
+use crate::cloud::{encode_ply, Cloud};
 use crate::error::Error;
+use crate::filter::FilterMode;
 use crate::io;
 use crate::pattern::{PatternSpec, DEFAULT_STRIPE_WIDTH};
-use crate::raster::Image;
-use crate::scan::{FilterMode, ScanConfig, ScanResult, Scanner, IDENTITY_CROSSTALK};
+use crate::raster::{to_rgba8, Image};
+use crate::scan::{ScanConfig, Scanner};
 use crate::sim;
-use js_sys::{Float32Array, Uint8Array};
+use js_sys::{Float32Array, Object, Reflect, Uint8Array};
 use wasm_bindgen::prelude::*;
 
 /// Runs once when the module is instantiated: panics are printed to the console with
@@ -36,14 +39,6 @@ fn parse_filter(name: &str) -> Result<FilterMode, JsError> {
     name.parse().map_err(js_error)
 }
 
-fn to_rgba(img: &Image<[u8; 3]>) -> Vec<u8> {
-    let mut out = Vec::with_capacity(img.pixels().len() * 4);
-    for p in img.pixels() {
-        out.extend_from_slice(&[p[0], p[1], p[2], 255]);
-    }
-    out
-}
-
 /// An 8-bit RGBA image (row-major, 4 bytes a pixel, alpha 255).
 #[wasm_bindgen(js_name = RgbaImage)]
 pub struct RgbaImage {
@@ -54,7 +49,7 @@ pub struct RgbaImage {
 
 impl RgbaImage {
     fn from_rgb(img: &Image<[u8; 3]>) -> Self {
-        RgbaImage { width: img.width() as u32, height: img.height() as u32, data: to_rgba(img) }
+        RgbaImage { width: img.width() as u32, height: img.height() as u32, data: to_rgba8(img) }
     }
 }
 
@@ -175,146 +170,31 @@ pub fn estimate_crosstalk(
     Ok(m.iter().flatten().copied().collect())
 }
 
+/// The camera's colour mixing typed by a person: 9 numbers, row by row, separated by
+/// commas, semicolons or white space; returns them, checked (finite, invertible).
+#[wasm_bindgen(js_name = parseCrosstalk)]
+pub fn parse_crosstalk_js(text: &str) -> Result<Vec<f32>, JsError> {
+    Ok(parse_crosstalk(text).map_err(js_error)?.iter().flatten().copied().collect())
+}
+
 /// Decode PNG or JPEG bytes to RGBA (no colour management: the values as stored).
 #[wasm_bindgen(js_name = decodeImage)]
 pub fn decode_image(bytes: &[u8]) -> Result<RgbaImage, JsError> {
     Ok(RgbaImage::from_rgb(&io::decode_rgb8(bytes).map_err(js_error)?))
 }
 
-/// A cloud as parallel flat arrays (see the module docs).
-#[derive(Default)]
-struct FlatCloud {
-    positions: Vec<f32>,
-    colors: Vec<u8>,
-    pixels: Vec<f32>,
-    families: Vec<u8>,
-}
-
-impl FlatCloud {
-    fn from_points(points: &[CloudPoint]) -> Self {
-        let n = points.len();
-        let mut c = FlatCloud {
-            positions: Vec::with_capacity(3 * n),
-            colors: Vec::with_capacity(3 * n),
-            pixels: Vec::with_capacity(2 * n),
-            families: Vec::with_capacity(n),
-        };
-        for p in points {
-            c.positions.extend_from_slice(&p.position);
-            c.colors.extend_from_slice(&p.color);
-            c.pixels.extend_from_slice(&p.pixel);
-            c.families.push(p.families);
-        }
-        c
-    }
-}
-
-/// What one scan produced, copied out of the scanner so that the scanner can take the
-/// next frame. Every array accessor returns a fresh JS array the worker can transfer.
-#[wasm_bindgen(js_name = ScanOutput)]
-pub struct ScanOutput {
-    merged: FlatCloud,
-    family_clouds: Vec<FlatCloud>,
-    depth: Vec<f32>,
-    width: u32,
-    height: u32,
-    stats_json: String,
-}
-
-impl ScanOutput {
-    fn from_result(r: &ScanResult) -> Self {
-        ScanOutput {
-            merged: FlatCloud::from_points(&r.points),
-            family_clouds: r.family_points.iter().map(|p| FlatCloud::from_points(p)).collect(),
-            depth: r.depth.pixels().to_vec(),
-            width: r.depth.width() as u32,
-            height: r.depth.height() as u32,
-            // Plain numbers and strings always serialize.
-            stats_json: serde_json::to_string(&r.stats).unwrap_or_default(),
-        }
-    }
-
-    fn family(&self, k: u32) -> Result<&FlatCloud, JsError> {
-        self.family_clouds.get(k as usize).ok_or_else(|| {
-            JsError::new(&format!("family {k} does not exist (the pattern has {})", self.family_clouds.len()))
-        })
-    }
-}
-
-#[wasm_bindgen(js_class = ScanOutput)]
-impl ScanOutput {
-    /// Points in the merged cloud.
-    #[wasm_bindgen(getter, js_name = pointCount)]
-    pub fn point_count(&self) -> u32 {
-        self.merged.families.len() as u32
-    }
-
-    /// Merged cloud positions, `x, y, z` per point, mm, camera frame.
-    pub fn positions(&self) -> Float32Array {
-        Float32Array::from(&self.merged.positions[..])
-    }
-
-    /// Merged cloud colours, `r, g, b` per point, as captured.
-    pub fn colors(&self) -> Uint8Array {
-        Uint8Array::from(&self.merged.colors[..])
-    }
-
-    /// Merged cloud camera pixels, `u, v` per point.
-    pub fn pixels(&self) -> Float32Array {
-        Float32Array::from(&self.merged.pixels[..])
-    }
-
-    /// Merged cloud family bit masks, one per point.
-    pub fn families(&self) -> Uint8Array {
-        Uint8Array::from(&self.merged.families[..])
-    }
-
-    /// Number of stripe families (each has its own cloud).
-    #[wasm_bindgen(getter, js_name = familyCount)]
-    pub fn family_count(&self) -> u32 {
-        self.family_clouds.len() as u32
-    }
-
-    /// Family `k`'s cloud positions.
-    #[wasm_bindgen(js_name = familyPositions)]
-    pub fn family_positions(&self, k: u32) -> Result<Float32Array, JsError> {
-        Ok(Float32Array::from(&self.family(k)?.positions[..]))
-    }
-
-    /// Family `k`'s cloud colours.
-    #[wasm_bindgen(js_name = familyColors)]
-    pub fn family_colors(&self, k: u32) -> Result<Uint8Array, JsError> {
-        Ok(Uint8Array::from(&self.family(k)?.colors[..]))
-    }
-
-    /// Family `k`'s cloud camera pixels.
-    #[wasm_bindgen(js_name = familyPixels)]
-    pub fn family_pixels(&self, k: u32) -> Result<Float32Array, JsError> {
-        Ok(Float32Array::from(&self.family(k)?.pixels[..]))
-    }
-
-    /// Merged depth map, Z in mm per camera pixel, row-major; NaN where none.
-    pub fn depth(&self) -> Float32Array {
-        Float32Array::from(&self.depth[..])
-    }
-
-    /// Depth map width (the camera's).
-    #[wasm_bindgen(getter)]
-    pub fn width(&self) -> u32 {
-        self.width
-    }
-
-    /// Depth map height (the camera's).
-    #[wasm_bindgen(getter)]
-    pub fn height(&self) -> u32 {
-        self.height
-    }
-
-    /// The scan's figures (`ScanStats`) as JSON.
-    #[wasm_bindgen(getter, js_name = statsJson)]
-    pub fn stats_json(&self) -> String {
-        self.stats_json.clone()
-    }
+/// A cloud as a plain JS object `{positions, colors, pixels, families}` of new typed
+/// arrays (one copy each, transferable).
+fn cloud_to_js(cloud: &Cloud) -> Result<Object, JsError> {
+    let obj = Object::new();
+    let set = |key: &str, value: &JsValue| {
+        Reflect::set(&obj, &JsValue::from_str(key), value).map_err(|_| JsError::new("could not build the cloud object"))
+    };
+    set("positions", &Float32Array::from(&cloud.positions[..]).into())?;
+    set("colors", &Uint8Array::from(&cloud.colors[..]).into())?;
+    set("pixels", &Float32Array::from(&cloud.pixels[..]).into())?;
+    set("families", &Uint8Array::from(&cloud.families[..]).into())?;
+    Ok(obj)
 }
 
 /// One intermediate image of the last scan, for the teaching view.
@@ -381,12 +261,7 @@ impl WasmScanner {
         let calib = Calibration::from_json(calib_json).map_err(js_error)?;
         let crosstalk = match crosstalk {
             None => IDENTITY_CROSSTALK,
-            Some(m) => {
-                let rows: [f32; 9] = m.as_slice().try_into().map_err(|_| {
-                    JsError::new(&format!("crosstalk must be 9 numbers (3x3, row-major), got {}", m.len()))
-                })?;
-                [[rows[0], rows[1], rows[2]], [rows[3], rows[4], rows[5]], [rows[6], rows[7], rows[8]]]
-            }
+            Some(m) => crosstalk_from_values(&m).map_err(js_error)?,
         };
         let config = ScanConfig { filter: parse_filter(filter)?, crosstalk, clock: Some(js_sys::Date::now), ..ScanConfig::default() };
         Ok(WasmScanner { inner: Scanner::new(spec, calib, config).map_err(js_error)? })
@@ -411,19 +286,36 @@ impl WasmScanner {
         Ok(())
     }
 
-    /// Keep the intermediate images of the following scans for [`WasmScanner::stages`].
-    #[wasm_bindgen(js_name = setKeepStages)]
-    pub fn set_keep_stages(&mut self, keep: bool) {
-        self.inner.set_keep_stages(keep);
-    }
-
-    /// Scan one frame given as RGBA bytes (a canvas `ImageData`'s `data`).
-    pub fn scan(&mut self, rgba: &[u8], width: u32, height: u32) -> Result<ScanOutput, JsError> {
+    /// Scan one frame given as RGBA bytes (a canvas `ImageData`'s `data`); returns the
+    /// scan's figures (`ScanStats`) as JSON. The clouds and depth stay in the scanner
+    /// until the next frame: take them with [`WasmScanner::cloud`] and
+    /// [`WasmScanner::depth`].
+    pub fn scan(&mut self, rgba: &[u8], width: u32, height: u32) -> Result<String, JsError> {
         let result = self.inner.scan_rgba(width as usize, height as usize, rgba).map_err(js_error)?;
-        Ok(ScanOutput::from_result(result))
+        // Plain numbers and strings always serialize.
+        Ok(serde_json::to_string(&result.stats).unwrap_or_default())
     }
 
-    /// The intermediate images of the last scan (empty unless stages were kept).
+    /// Number of stripe families (each has its own cloud).
+    #[wasm_bindgen(getter, js_name = familyCount)]
+    pub fn family_count(&self) -> u32 {
+        self.inner.spec().families.len() as u32
+    }
+
+    /// A cloud of the last scan as `{positions, colors, pixels, families}`: the merged
+    /// cloud when `family` is `undefined`, family `family`'s own cloud otherwise.
+    pub fn cloud(&self, family: Option<u32>) -> Result<Object, JsError> {
+        let cloud = self.inner.result().layer(family.map(|k| k as usize)).map_err(js_error)?;
+        cloud_to_js(cloud)
+    }
+
+    /// The merged depth of the last scan, Z in mm per camera pixel, row-major; NaN
+    /// where none.
+    pub fn depth(&self) -> Float32Array {
+        Float32Array::from(self.inner.result().depth.pixels())
+    }
+
+    /// The intermediate images of the last scan (empty before the first).
     pub fn stages(&self) -> Vec<StageImage> {
         self.inner
             .stages()
@@ -443,28 +335,8 @@ pub fn encode_ply_js(
     families: &[u8],
     ascii: bool,
 ) -> Result<Vec<u8>, JsError> {
-    let n = families.len();
-    if positions.len() != 3 * n || colors.len() != 3 * n || pixels.len() != 2 * n {
-        return Err(JsError::new(&format!(
-            "cloud arrays disagree: {n} families, {} position, {} colour and {} pixel values \
-             (expected {}, {} and {})",
-            positions.len(),
-            colors.len(),
-            pixels.len(),
-            3 * n,
-            3 * n,
-            2 * n
-        )));
-    }
-    let points: Vec<CloudPoint> = (0..n)
-        .map(|i| CloudPoint {
-            position: [positions[3 * i], positions[3 * i + 1], positions[3 * i + 2]],
-            color: [colors[3 * i], colors[3 * i + 1], colors[3 * i + 2]],
-            pixel: [pixels[2 * i], pixels[2 * i + 1]],
-            families: families[i],
-        })
-        .collect();
-    Ok(encode_ply(&points, ascii))
+    let cloud = Cloud::from_parts(positions.to_vec(), colors.to_vec(), pixels.to_vec(), families.to_vec()).map_err(js_error)?;
+    Ok(encode_ply(&cloud, ascii))
 }
 
 /// Encode a depth map (row-major, Z in mm, NaN where none) as PFM per `conventions.md`.

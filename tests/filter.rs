@@ -3,13 +3,16 @@
 //! the two that run the slow reference or render many VGA frames (native only: in a
 //! debug wasm build they take minutes).
 
+#[macro_use]
+mod support;
+
 #[cfg(target_arch = "wasm32")]
 wasm_bindgen_test::wasm_bindgen_test_configure!(run_in_browser);
 
 use stripelight::filter::{reference, FamilyWindow, LogGradFilter, Restored};
 use stripelight::pattern::DEFAULT_STRIPE_WIDTH;
 use stripelight::raster::{rgb8_to_linear, Image, Rgb};
-use stripelight::scan::FilterMode;
+use stripelight::filter::FilterMode;
 use stripelight::sim::{self, Frame, Scene, SimConfig};
 use stripelight::{Calibration, PatternSpec};
 
@@ -132,10 +135,9 @@ fn restoration_recovers_stripe_colours_on_coloured_surfaces() {
     }
 }
 
+both_targets! {
 /// Degenerate frames give defined, finite results (or a clear error), never NaN or a
 /// panic.
-#[cfg_attr(not(target_arch = "wasm32"), test)]
-#[cfg_attr(target_arch = "wasm32", wasm_bindgen_test::wasm_bindgen_test)]
 fn degenerate_frames_give_finite_results() {
     let (w, h) = (37, 23); // odd sizes
     let mut filter = LogGradFilter::new(w, h).unwrap();
@@ -162,4 +164,5 @@ fn degenerate_frames_give_finite_results() {
     let mut out = vec![Restored::new(w, h)];
     let bad = Image::new(w + 1, h, [0.5; 3]);
     assert!(filter.run(&bad, &windows[..1], FilterMode::LogGrad, &mut out).is_err());
+}
 }

@@ -2,14 +2,16 @@
 //! the same pattern from native and wasm builds. Each test runs natively and in the
 //! browser.
 
+#[macro_use]
+mod support;
+
 #[cfg(target_arch = "wasm32")]
 wasm_bindgen_test::wasm_bindgen_test_configure!(run_in_browser);
 
 use std::collections::HashSet;
 use stripelight::pattern::{transition, windowed_sequence, PatternSpec, Transition, DEFAULT_STRIPE_WIDTH};
 
-#[cfg_attr(not(target_arch = "wasm32"), test)]
-#[cfg_attr(target_arch = "wasm32", wasm_bindgen_test::wasm_bindgen_test)]
+both_targets! {
 fn every_window_is_unique_and_adjacent_stripes_differ() {
     for n in 1..=3 {
         let spec = PatternSpec::generate(n, 1024, 768, DEFAULT_STRIPE_WIDTH).unwrap();
@@ -29,9 +31,9 @@ fn every_window_is_unique_and_adjacent_stripes_differ() {
         assert!(spec.families[0].count as f64 * DEFAULT_STRIPE_WIDTH >= 1024.0);
     }
 }
+}
 
-#[cfg_attr(not(target_arch = "wasm32"), test)]
-#[cfg_attr(target_arch = "wasm32", wasm_bindgen_test::wasm_bindgen_test)]
+both_targets! {
 fn narrow_stripes_get_a_longer_window() {
     // 1024 / 3 = 342 stripes: more than the 290 distinct 3-stripe windows.
     let spec = PatternSpec::generate(1, 1024, 768, 3.0).unwrap();
@@ -39,9 +41,9 @@ fn narrow_stripes_get_a_longer_window() {
     spec.validate().unwrap();
     assert_eq!(windowed_sequence(291, 3), None);
 }
+}
 
-#[cfg_attr(not(target_arch = "wasm32"), test)]
-#[cfg_attr(target_arch = "wasm32", wasm_bindgen_test::wasm_bindgen_test)]
+both_targets! {
 fn no_channel_is_driven_to_zero() {
     for n in 1..=3 {
         let spec = PatternSpec::generate(n, 160, 120, DEFAULT_STRIPE_WIDTH).unwrap();
@@ -51,18 +53,18 @@ fn no_channel_is_driven_to_zero() {
         assert!(darkest >= low.powi(n as i32) * 0.999, "{n} directions: darkest {darkest}");
     }
 }
+}
 
-#[cfg_attr(not(target_arch = "wasm32"), test)]
-#[cfg_attr(target_arch = "wasm32", wasm_bindgen_test::wasm_bindgen_test)]
+both_targets! {
 fn generation_matches_the_stored_spec_on_every_target() {
     // tests/data/pattern2.json was written natively by `stripelight pattern --directions 2`.
     let stored = PatternSpec::from_json(include_str!("data/pattern2.json")).unwrap();
     let now = PatternSpec::generate(2, 1024, 768, DEFAULT_STRIPE_WIDTH).unwrap();
     assert_eq!(now, stored);
 }
+}
 
-#[cfg_attr(not(target_arch = "wasm32"), test)]
-#[cfg_attr(target_arch = "wasm32", wasm_bindgen_test::wasm_bindgen_test)]
+both_targets! {
 fn broken_spec_files_name_the_field() {
     let good = PatternSpec::generate(2, 1024, 768, DEFAULT_STRIPE_WIDTH).unwrap();
     let mut repeated = good.clone();
@@ -88,17 +90,17 @@ fn broken_spec_files_name_the_field() {
     let err = PatternSpec::from_json(&dup_window.to_json()).unwrap_err().to_string();
     assert!(err.contains("sequence"), "{err}");
 }
+}
 
+both_targets! {
 /// The combined pattern, filtered along each family, separates back into that
 /// family's own stripes: the log-gradient restoration of the product at the family's
 /// angle equals the restoration of the family alone (in the log domain the product is
 /// a sum, and a derivative across one family does not see a perpendicular one; three
 /// families 60 degrees apart are decoupled by the filter).
-#[cfg_attr(not(target_arch = "wasm32"), test)]
-#[cfg_attr(target_arch = "wasm32", wasm_bindgen_test::wasm_bindgen_test)]
 fn combined_patterns_separate_into_their_families() {
     use stripelight::filter::{FamilyWindow, LogGradFilter, Restored};
-    use stripelight::scan::FilterMode;
+    use stripelight::filter::FilterMode;
     let (w, h) = (256, 192);
     for n in 2..=3 {
         let spec = PatternSpec::generate(n, w as u32, h as u32, 8.0).unwrap();
@@ -126,4 +128,5 @@ fn combined_patterns_separate_into_their_families() {
             }
         }
     }
+}
 }

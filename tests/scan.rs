@@ -3,15 +3,21 @@
 //!
 //! The stored frame `tests/data/sphere2.png` and its ground-truth depth
 //! `tests/data/sphere2-depth.pfm` are the simulator's `sphere` scene under the
-//! two-direction pattern `tests/data/pattern2.json` on the demo rig (seed 1). They are
-//! written again by `STRIPELIGHT_REGENERATE=1 cargo test --test scan`.
+//! two-direction pattern `tests/data/pattern2.json` on the demo rig (seed 1). A test
+//! checks that the simulator still renders exactly them; after a deliberate change to
+//! the simulator, `STRIPELIGHT_REGENERATE=1 cargo test --test scan` writes them again.
+
+#[macro_use]
+mod support;
 
 #[cfg(target_arch = "wasm32")]
 wasm_bindgen_test::wasm_bindgen_test_configure!(run_in_browser);
 
 use stripelight::eval::outlier_threshold;
 use stripelight::io;
-use stripelight::scan::{FilterMode, ScanConfig, Scanner, IDENTITY_CROSSTALK};
+use stripelight::calib::parse_crosstalk;
+use stripelight::filter::FilterMode;
+use stripelight::scan::{ScanConfig, Scanner};
 use stripelight::sim::SimConfig;
 use stripelight::{Calibration, Error, Image, PatternSpec};
 
@@ -24,11 +30,10 @@ fn sample_config() -> ScanConfig {
     ScanConfig { crosstalk: SimConfig::default().crosstalk, ..ScanConfig::default() }
 }
 
+both_targets! {
 /// Scan the stored frame and compare with the stored ground truth: the fraction of
 /// pixels with a true surface that decode, and the fraction of decoded ones that are
 /// outliers.
-#[cfg_attr(not(target_arch = "wasm32"), test)]
-#[cfg_attr(target_arch = "wasm32", wasm_bindgen_test::wasm_bindgen_test)]
 fn stored_frame_decodes_to_the_true_depth() {
     let spec = PatternSpec::from_json(SPEC).unwrap();
     let frame = io::decode_rgb8(FRAME).unwrap();
@@ -52,13 +57,24 @@ fn stored_frame_decodes_to_the_true_depth() {
     // background is surface without light), 0.5 % outliers.
     assert!(coverage > 0.7, "coverage {coverage:.3}");
     assert!(outlier_rate < 0.01, "outliers {outlier_rate:.4}");
-    assert_eq!(result.points.len(), decoded);
-    assert!(result.points.iter().all(|p| p.position.iter().all(|c| c.is_finite()) && p.families != 0));
+    let cloud = &result.cloud;
+    assert_eq!(cloud.len(), decoded);
+    assert!(cloud.positions.iter().all(|c| c.is_finite()) && cloud.families.iter().all(|&f| f != 0));
+    // Each point's z is the depth map's value at the pixel it came from.
+    for i in (0..cloud.len()).step_by(97) {
+        let (u, v) = (cloud.pixels[2 * i] as usize, cloud.pixels[2 * i + 1] as usize);
+        assert_eq!(cloud.position(i)[2], result.depth.get(u, v), "point {i} at ({u}, {v})");
+    }
+    // The family clouds are the family depth maps, point for point.
+    for (k, (c, d)) in result.family_clouds.iter().zip(&result.family_depth).enumerate() {
+        assert_eq!(c.len(), d.pixels().iter().filter(|z| !z.is_nan()).count(), "family {k}");
+        assert!(c.families.iter().all(|&f| f == 1 << k));
+    }
+}
 }
 
+both_targets! {
 /// Bad input gives a clear error or an empty result, never a panic.
-#[cfg_attr(not(target_arch = "wasm32"), test)]
-#[cfg_attr(target_arch = "wasm32", wasm_bindgen_test::wasm_bindgen_test)]
 fn bad_input_gives_clear_errors() {
     let spec = PatternSpec::from_json(SPEC).unwrap();
     let calib = Calibration::demo();
@@ -66,30 +82,35 @@ fn bad_input_gives_clear_errors() {
     // A frame of another size.
     let err = scanner.scan(&Image::new(320, 240, [0u8; 3])).unwrap_err();
     assert!(matches!(err, Error::ImageSize { expected: (640, 480), got: (320, 240) }), "{err}");
-    assert!(scanner.scan_rgba(640, 480, &[0; 10]).unwrap_err().to_string().contains("RGBA"));
+    let err = scanner.scan_rgba(640, 480, &[0; 10]).unwrap_err();
+    assert!(matches!(err, Error::BufferLength { size: (640, 480), per_pixel: 4, got: 10 }), "{err}");
     // A black frame and a saturated one decode to nothing, without error.
     for value in [0u8, 255] {
         let result = scanner.scan(&Image::new(640, 480, [value; 3])).unwrap();
-        assert_eq!(result.points.len(), 0);
+        assert_eq!(result.cloud.len(), 0);
         assert!(result.depth.pixels().iter().all(|z| z.is_nan()));
     }
     // A pattern for another projector than the calibration's.
     let other = PatternSpec::generate(2, 800, 600, 10.0).unwrap();
-    let err = Scanner::new(other, calib.clone(), ScanConfig::default()).err().unwrap().to_string();
-    assert!(err.contains("800x600") && err.contains("1024x768"), "{err}");
-    // A singular colour mixing matrix.
+    let err = Scanner::new(other, calib.clone(), ScanConfig::default()).err().unwrap();
+    assert!(matches!(err, Error::ProjectorMismatch { pattern: (800, 600), calibration: (1024, 768) }), "{err}");
+    // A singular colour mixing matrix, and typed ones that are not 9 numbers.
     let config = ScanConfig { crosstalk: [[1.0; 3]; 3], ..ScanConfig::default() };
-    assert!(Scanner::new(spec, calib, config).err().unwrap().to_string().contains("crosstalk"));
+    let err = Scanner::new(spec, calib, config).err().unwrap().to_string();
+    assert!(err.starts_with("crosstalk:") && err.contains("cannot be inverted"), "{err}");
+    assert!(parse_crosstalk("1, 0, 0, 0, 1, 0").unwrap_err().to_string().contains("needs 9 numbers"));
+    assert!(parse_crosstalk("1 0 0 0 1 0 0 0 x").unwrap_err().to_string().contains("\"x\" is not a number"));
+    assert!(parse_crosstalk("1 0 0 0 1 0 0 0 NaN").unwrap_err().to_string().contains("not a number"));
     // Unreadable image bytes.
     assert!(matches!(io::decode_rgb8(b"not an image"), Err(Error::ImageDecode(_))));
-    assert_eq!(ScanConfig::default().crosstalk, IDENTITY_CROSSTALK);
     assert!("sharp".parse::<FilterMode>().unwrap_err().to_string().contains("direct, loggrad"));
+}
 }
 
 #[cfg(not(target_arch = "wasm32"))]
 mod native {
     use stripelight::eval::{evaluate, Row};
-    use stripelight::scan::FilterMode;
+    use stripelight::filter::FilterMode;
     use stripelight::Calibration;
 
     fn row(scene: &str, directions: usize, filter: FilterMode) -> Row {
@@ -136,19 +157,31 @@ mod native {
         }
     }
 
-    /// `STRIPELIGHT_REGENERATE=1` writes the stored frame and its ground truth again.
+    /// The stored frame, its ground truth and its pattern are what the pattern
+    /// generator and the simulator make today (so the tests that use them test today's
+    /// code); `STRIPELIGHT_REGENERATE=1` writes them again instead.
     #[test]
-    fn regenerate_stored_frames() {
-        if std::env::var_os("STRIPELIGHT_REGENERATE").is_none() {
-            return;
-        }
+    fn stored_frames_are_what_the_simulator_renders() {
         use stripelight::sim::{render, Scene, SimConfig};
         let spec = stripelight::PatternSpec::generate(2, 1024, 768, stripelight::pattern::DEFAULT_STRIPE_WIDTH).unwrap();
         let cfg = SimConfig { seed: 1, projector_gamma: spec.encoding_gamma as f32, ..SimConfig::default() };
         let frame = render(&Scene::builtin("sphere").unwrap(), &Calibration::demo(), &spec.render_rgb8(), &cfg).unwrap();
+        let files = [
+            ("pattern2.json", spec.to_json().into_bytes()),
+            ("sphere2.png", stripelight::io::encode_png(&frame.image).unwrap()),
+            ("sphere2-depth.pfm", stripelight::io::encode_pfm(&frame.depth)),
+        ];
         let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data");
-        std::fs::write(dir.join("pattern2.json"), spec.to_json()).unwrap();
-        std::fs::write(dir.join("sphere2.png"), stripelight::io::encode_png(&frame.image).unwrap()).unwrap();
-        std::fs::write(dir.join("sphere2-depth.pfm"), stripelight::io::encode_pfm(&frame.depth)).unwrap();
+        if std::env::var_os("STRIPELIGHT_REGENERATE").is_some() {
+            for (name, bytes) in &files {
+                std::fs::write(dir.join(name), bytes).unwrap();
+            }
+            return;
+        }
+        assert_eq!(super::SPEC.as_bytes(), &files[0].1[..], "pattern2.json differs from today's pattern");
+        assert_eq!(stripelight::io::decode_rgb8(super::FRAME).unwrap(), frame.image, "sphere2.png differs from today's render");
+        let stored = stripelight::io::decode_pfm(super::DEPTH).unwrap();
+        let same = stored.pixels().iter().zip(frame.depth.pixels()).all(|(a, b)| a.to_bits() == b.to_bits() || (a.is_nan() && b.is_nan()));
+        assert!(same, "sphere2-depth.pfm differs from today's ground truth");
     }
 }

@@ -4,6 +4,9 @@
 //! runs natively and in the browser; most use the demo rig with a half-resolution
 //! camera (same view, a quarter of the pixels) to keep the browser run short.
 
+#[macro_use]
+mod support;
+
 #[cfg(target_arch = "wasm32")]
 wasm_bindgen_test::wasm_bindgen_test_configure!(run_in_browser);
 
@@ -35,8 +38,7 @@ fn count(img: &Image<bool>) -> usize {
     img.pixels().iter().filter(|&&b| b).count()
 }
 
-#[cfg_attr(not(target_arch = "wasm32"), test)]
-#[cfg_attr(target_arch = "wasm32", wasm_bindgen_test::wasm_bindgen_test)]
+both_targets! {
 fn ground_truth_triangulates_back_to_itself() {
     let (_, image) = pattern();
     // Ground truth is taken at pixel centres: one ray per pixel is enough here.
@@ -74,9 +76,9 @@ fn ground_truth_triangulates_back_to_itself() {
         }
     }
 }
+}
 
-#[cfg_attr(not(target_arch = "wasm32"), test)]
-#[cfg_attr(target_arch = "wasm32", wasm_bindgen_test::wasm_bindgen_test)]
+both_targets! {
 fn depth_lies_on_the_analytic_surfaces() {
     let (_, image) = pattern();
     let cfg = SimConfig {
@@ -114,9 +116,9 @@ fn depth_lies_on_the_analytic_surfaces() {
         assert!(on_object * 5 > w * h, "{name}: the object covers only {on_object} pixels");
     }
 }
+}
 
-#[cfg_attr(not(target_arch = "wasm32"), test)]
-#[cfg_attr(target_arch = "wasm32", wasm_bindgen_test::wasm_bindgen_test)]
+both_targets! {
 fn occluders_cast_shadows_and_have_edges_in_three_directions() {
     let (_, image) = pattern();
     let cfg = SimConfig {
@@ -161,9 +163,9 @@ fn occluders_cast_shadows_and_have_edges_in_three_directions() {
     }
     assert!(bins.iter().all(|&n| n >= 40), "edge pixels (vertical, horizontal, diagonal): {bins:?}");
 }
+}
 
-#[cfg_attr(not(target_arch = "wasm32"), test)]
-#[cfg_attr(target_arch = "wasm32", wasm_bindgen_test::wasm_bindgen_test)]
+both_targets! {
 fn noise_follows_the_seed() {
     let (_, image) = pattern();
     let calib = shrink_camera(Calibration::demo(), 4);
@@ -195,9 +197,9 @@ fn noise_follows_the_seed() {
     sim::render_into(&scene, &calib, &image, &cfg, &mut reused).unwrap();
     assert!(reused.same_as(&b));
 }
+}
 
-#[cfg_attr(not(target_arch = "wasm32"), test)]
-#[cfg_attr(target_arch = "wasm32", wasm_bindgen_test::wasm_bindgen_test)]
+both_targets! {
 fn white_plane_reads_the_analytic_value() {
     let calib = Calibration::demo();
     let white = Image::new(1024, 768, [255u8; 3]);
@@ -238,9 +240,9 @@ fn white_plane_reads_the_analytic_value() {
     assert!(count(&frame.lit) * 10 > 9 * 640 * 480);
     assert!(DVec3::Z.dot(n) < 0.0);
 }
+}
 
-#[cfg_attr(not(target_arch = "wasm32"), test)]
-#[cfg_attr(target_arch = "wasm32", wasm_bindgen_test::wasm_bindgen_test)]
+both_targets! {
 fn bad_input_is_refused() {
     let calib = Calibration::demo();
     let scene = Scene::builtin("plane").unwrap();
@@ -265,7 +267,7 @@ fn bad_input_is_refused() {
         SimConfig { exposure: -1.0, ..SimConfig::default() },
     ] {
         let err = sim::render(&scene, &tiny, &image, &cfg).unwrap_err();
-        assert!(matches!(err, Error::Invalid(_)), "{err}");
+        assert!(matches!(err, Error::Scene(_)), "{err}");
     }
     let mut broken = tiny.clone();
     broken.camera.fx = -1.0;
@@ -280,11 +282,11 @@ fn bad_input_is_refused() {
     };
     assert!(Scene::new(vec![bad]).is_err());
 }
+}
 
+both_targets! {
 /// The colour mixing measured from frames of the simulator's white plane under full
 /// red, green, blue and black is the simulator's own crosstalk matrix.
-#[cfg_attr(not(target_arch = "wasm32"), test)]
-#[cfg_attr(target_arch = "wasm32", wasm_bindgen_test::wasm_bindgen_test)]
 fn colour_mixing_is_measured_from_primary_frames() {
     let calib = Calibration::demo();
     let scene = Scene::builtin("plane").unwrap();
@@ -303,4 +305,5 @@ fn colour_mixing_is_measured_from_primary_frames() {
     // A black card gives a clear error, not a matrix.
     let err = stripelight::calib::estimate_crosstalk([&k, &k, &k], &k, 2.2).unwrap_err().to_string();
     assert!(err.starts_with("colour frames:"), "{err}");
+}
 }

@@ -4,11 +4,12 @@
 //! of a panic.
 #![cfg(target_arch = "wasm32")]
 
+use js_sys::{Object, Reflect};
 use stripelight::wasm::{
-    calibration_from_rig, decode_image, simulator_crosstalk, default_calibration, encode_pfm_js, encode_ply_js, generate_pattern,
-    parse_calibration, render_scene, scene_names, WasmScanner,
+    calibration_from_rig, decode_image, default_calibration, encode_pfm_js, encode_ply_js, generate_pattern, parse_calibration,
+    parse_crosstalk_js, render_scene, scene_names, simulator_crosstalk, WasmScanner,
 };
-use wasm_bindgen::{JsError, JsValue};
+use wasm_bindgen::{JsCast, JsError, JsValue};
 use wasm_bindgen_test::{wasm_bindgen_test, wasm_bindgen_test_configure};
 
 wasm_bindgen_test_configure!(run_in_browser);
@@ -16,6 +17,17 @@ wasm_bindgen_test_configure!(run_in_browser);
 /// The message of a JS `Error` made from a `JsError`.
 fn message(e: JsError) -> String {
     js_sys::Error::from(JsValue::from(e)).message().into()
+}
+
+/// Field `name` of a cloud object from `Scanner.cloud` as the typed array it is.
+fn field<T: JsCast>(cloud: &Object, name: &str) -> T {
+    Reflect::get(cloud, &JsValue::from_str(name)).unwrap().dyn_into::<T>().unwrap()
+}
+
+/// Scan and return the merged cloud's number of points (from the cloud itself).
+fn points(scanner: &mut WasmScanner, rgba: &[u8], w: u32, h: u32) -> usize {
+    scanner.scan(rgba, w, h).map_err(message).unwrap();
+    field::<js_sys::Uint8Array>(&scanner.cloud(None).map_err(message).unwrap(), "families").length() as usize
 }
 
 fn expect_error<T>(result: Result<T, JsError>, contains: &str) -> String {
@@ -46,46 +58,54 @@ fn a_simulated_frame_gives_a_plausible_cloud() {
     assert_eq!(rgba.len(), 640 * 480 * 4);
     let mut scanner = WasmScanner::new(&spec, &calib, "loggrad", None).map_err(message).unwrap();
     assert_eq!((scanner.width(), scanner.height()), (640, 480));
-    let out = scanner.scan(&rgba, w, h).map_err(message).unwrap();
-    let n = out.point_count() as usize;
+    // Before the first frame there is nothing to show.
+    assert!(scanner.stages().is_empty());
+    let stats: serde_json::Value = serde_json::from_str(&scanner.scan(&rgba, w, h).map_err(message).unwrap()).unwrap();
+    let merged = scanner.cloud(None).map_err(message).unwrap();
+    let n = field::<js_sys::Uint8Array>(&merged, "families").length() as usize;
     // Undoing the simulator's known colour mixing, as a colour calibration would, must
     // not lose points.
     let mut unmixed = WasmScanner::new(&spec, &calib, "loggrad", Some(simulator_crosstalk())).map_err(message).unwrap();
-    let n_unmixed = unmixed.scan(&rgba, w, h).map_err(message).unwrap().point_count() as usize;
+    let n_unmixed = points(&mut unmixed, &rgba, w, h);
     assert!(n_unmixed * 100 >= n * 95, "{n_unmixed} points with the crosstalk undone, {n} without");
     // The sphere and the wall behind it fill most of the frame: at least a fifth of the
     // pixels must decode, and no more points than pixels can come out.
     assert!(n > 640 * 480 / 5 && n <= 640 * 480, "{n} points");
-    assert_eq!(out.positions().length() as usize, 3 * n);
-    assert_eq!(out.colors().length() as usize, 3 * n);
-    assert_eq!(out.pixels().length() as usize, 2 * n);
-    assert_eq!(out.families().length() as usize, n);
-    assert_eq!(out.family_count(), 2);
+    let positions = field::<js_sys::Float32Array>(&merged, "positions");
+    assert_eq!(positions.length() as usize, 3 * n);
+    assert_eq!(field::<js_sys::Uint8Array>(&merged, "colors").length() as usize, 3 * n);
+    assert_eq!(field::<js_sys::Float32Array>(&merged, "pixels").length() as usize, 2 * n);
+    assert_eq!(scanner.family_count(), 2);
+    let decoded = stats["decoded"].as_array().unwrap();
     for k in 0..2 {
-        let m = out.family_positions(k).map_err(message).unwrap().length();
-        assert!(m > 0 && m.is_multiple_of(3));
+        let family = scanner.cloud(Some(k)).map_err(message).unwrap();
+        let m = field::<js_sys::Uint8Array>(&family, "families");
+        assert_eq!(Some(m.length() as u64), decoded[k as usize].as_u64(), "family {k}");
+        assert!(m.length() > 0 && m.to_vec().iter().all(|&f| f == 1 << k));
+        assert_eq!(field::<js_sys::Float32Array>(&family, "positions").length(), 3 * m.length());
     }
-    expect_error(out.family_positions(2), "family 2 does not exist");
-    assert_eq!(out.depth().length(), 640 * 480);
+    expect_error(scanner.cloud(Some(2)), "family 2 does not exist");
+    // The depth map has a depth exactly where the merged cloud has a point.
+    let depth = scanner.depth().to_vec();
+    assert_eq!(depth.len(), 640 * 480);
+    assert_eq!(depth.iter().filter(|z| !z.is_nan()).count(), n);
     // The scene sits around the rig's aim distance (750 mm).
-    let mut z: Vec<f32> = out.positions().to_vec().chunks(3).map(|p| p[2]).collect();
+    let mut z: Vec<f32> = positions.to_vec().chunks(3).map(|p| p[2]).collect();
     z.sort_by(f32::total_cmp);
     let median = z[z.len() / 2];
     assert!((400.0..1200.0).contains(&median), "median depth {median} mm");
-    let stats: serde_json::Value = serde_json::from_str(&out.stats_json()).unwrap();
     assert_eq!(stats["merged"].as_u64(), Some(n as u64));
 
-    // The same scanner takes the next frame with another filter, and keeps stages on request.
+    // The same scanner takes the next frame with another filter; the stages show it.
     scanner.set_filter("direct").map_err(message).unwrap();
-    scanner.set_keep_stages(true);
-    let direct = scanner.scan(&rgba, w, h).map_err(message).unwrap();
-    assert!(direct.point_count() > 0);
+    assert!(points(&mut scanner, &rgba, w, h) > 0);
     let stages = scanner.stages();
     assert!(stages.len() >= 4, "{} stages", stages.len());
     for s in &stages {
         assert_eq!(s.rgba().length(), s.width() * s.height() * 4, "stage {}", s.name());
         assert!(!s.caption().is_empty());
     }
+    assert!(stages.iter().any(|s| s.caption().contains("(direct)")), "the stages are the direct scan's");
 }
 
 /// The stored frame the end-to-end test also uses: the simulator's `textured` scene lit
@@ -101,11 +121,11 @@ fn a_stored_frame_decodes_and_scans() {
     assert!(rgba.chunks(4).all(|p| p[3] == 255));
     let spec = generate_pattern(2, 1024, 768).map_err(message).unwrap();
     let mut scanner = WasmScanner::new(&spec, &default_calibration(), "loggrad", None).map_err(message).unwrap();
-    let loggrad = scanner.scan(&rgba, 640, 480).map_err(message).unwrap().point_count();
+    let loggrad = points(&mut scanner, &rgba, 640, 480);
     // A textured cylinder before a wall: a tenth of the pixels decode at the very least.
-    assert!(loggrad as usize > 640 * 480 / 10, "{loggrad} points");
+    assert!(loggrad > 640 * 480 / 10, "{loggrad} points");
     // Scanning is deterministic: the same frame gives the same cloud.
-    assert_eq!(scanner.scan(&rgba, 640, 480).map_err(message).unwrap().point_count(), loggrad);
+    assert_eq!(points(&mut scanner, &rgba, 640, 480), loggrad);
 }
 
 #[wasm_bindgen_test]
@@ -114,13 +134,15 @@ fn scanner_creation_errors_say_what_is_wrong() {
     let spec = generate_pattern(2, 1024, 768).map_err(message).unwrap();
     expect_error(WasmScanner::new("{", &calib, "loggrad", None), "pattern spec");
     expect_error(WasmScanner::new(&spec, "{}", "loggrad", None), "calibration");
-    expect_error(WasmScanner::new(&spec, &calib, "sharpen", None), "filter must be");
-    expect_error(WasmScanner::new(&spec, &calib, "loggrad", Some(vec![1.0; 4])), "crosstalk must be 9 numbers");
-    expect_error(WasmScanner::new(&spec, &calib, "loggrad", Some(vec![0.0; 9])), "crosstalk");
+    expect_error(WasmScanner::new(&spec, &calib, "sharpen", None), "filter: must be");
+    expect_error(WasmScanner::new(&spec, &calib, "loggrad", Some(vec![1.0; 4])), "crosstalk: needs 9 numbers");
+    expect_error(WasmScanner::new(&spec, &calib, "loggrad", Some(vec![0.0; 9])), "cannot be inverted");
+    expect_error(parse_crosstalk_js("1, 0, 0"), "crosstalk: needs 9 numbers");
+    assert_eq!(parse_crosstalk_js("0.9,0.1,0; 0 1 0\n0 0 1").map_err(message).unwrap()[..3], [0.9, 0.1, 0.0]);
     let small = generate_pattern(2, 800, 600).map_err(message).unwrap();
     let m = expect_error(WasmScanner::new(&small, &calib, "loggrad", None), "800");
     assert!(m.contains("1024"), "{m}");
-    expect_error(generate_pattern(4, 1024, 768), "");
+    expect_error(generate_pattern(4, 1024, 768), "directions: must be 1, 2 or 3, got 4");
     expect_error(parse_calibration(&calib.replace("\"fx\": 760.0", "\"fx\": -760.0")), "camera.fx");
 }
 
@@ -128,19 +150,19 @@ fn scanner_creation_errors_say_what_is_wrong() {
 fn bad_frames_are_errors_not_panics() {
     let (spec, calib, rgba, w, h) = sample();
     let mut scanner = WasmScanner::new(&spec, &calib, "loggrad", None).map_err(message).unwrap();
-    expect_error(scanner.scan(&rgba[..rgba.len() - 4], w, h), "RGBA bytes");
-    expect_error(scanner.scan(&vec![0; 320 * 240 * 4], 320, 240), "320x240");
-    expect_error(scanner.scan(&[], 0, 0), "");
+    expect_error(scanner.scan(&rgba[..rgba.len() - 4], w, h), "cannot be a 640x480 image of 4 per pixel");
+    expect_error(scanner.scan(&vec![0; 320 * 240 * 4], 320, 240), "image is 320x240 but 640x480 was expected");
+    expect_error(scanner.scan(&[], 0, 0), "image is 0x0 but 640x480 was expected");
     // A black frame is a result with nothing in it, not an error.
-    let black = scanner.scan(&vec![0; rgba.len()], w, h).map_err(message).unwrap();
-    assert!(black.point_count() < 1000, "{} points from a black frame", black.point_count());
+    let black = points(&mut scanner, &vec![0; rgba.len()], w, h);
+    assert!(black < 1000, "{black} points from a black frame");
     // The scanner still works after all that.
-    assert!(scanner.scan(&rgba, w, h).map_err(message).unwrap().point_count() > 0);
+    assert!(points(&mut scanner, &rgba, w, h) > 0);
 
     expect_error(decode_image(b"hello, not an image"), "not a readable image");
     expect_error(render_scene("teapot", &spec, &calib, 1), "teapot");
     assert!(scene_names().iter().any(|n| n == "sphere"));
-    expect_error(encode_ply_js(&[0.0; 3], &[0; 3], &[0.0; 2], &[1, 1], false), "cloud arrays disagree");
+    expect_error(encode_ply_js(&[0.0; 3], &[0; 3], &[0.0; 2], &[1, 1], false), "cloud: arrays disagree");
     expect_error(encode_pfm_js(&[0.0; 5], 2, 2), "2x2");
     expect_error(calibration_from_rig("{\"camera_width\": 640}"), "calibration");
     expect_error(

@@ -51,19 +51,8 @@ function image(img) {
   }
 }
 
-function cloudOf(out, k) {
-  return k === undefined
-    ? { positions: out.positions(), colors: out.colors(), pixels: out.pixels(), families: out.families() }
-    : {
-        positions: out.familyPositions(k),
-        colors: out.familyColors(k),
-        pixels: out.familyPixels(k),
-        families: null,
-      };
-}
-
 function buffersOf(cloud) {
-  return [cloud.positions, cloud.colors, cloud.pixels, cloud.families].filter(Boolean).map((a) => a.buffer);
+  return [cloud.positions, cloud.colors, cloud.pixels, cloud.families].map((a) => a.buffer);
 }
 
 /** Each handler takes the message and returns {value, transfer}. */
@@ -106,33 +95,32 @@ const handlers = {
   scan({ specJson, calibJson, filter, crosstalk, width, height, rgba, stages }, id) {
     const scanner = scannerFor(specJson, calibJson, filter, crosstalk, id);
     scanner.setFilter(filter);
-    scanner.setKeepStages(Boolean(stages));
     progress(id, `decoding a ${width}x${height} frame (${filter})`);
     const t0 = performance.now();
-    const out = scanner.scan(bytesOf(rgba), width, height);
+    const stats = JSON.parse(scanner.scan(bytesOf(rgba), width, height));
     const ms = performance.now() - t0;
-    try {
-      const merged = cloudOf(out);
-      const families = [];
-      for (let k = 0; k < out.familyCount; k++) families.push(cloudOf(out, k));
-      const depth = out.depth();
-      const value = {
-        merged,
-        families,
-        depth,
-        width: out.width,
-        height: out.height,
-        stats: JSON.parse(out.statsJson),
-        ms,
-        stages: stages ? stagesOf(scanner) : [],
-      };
-      const transfer = [merged, ...families].flatMap(buffersOf);
-      transfer.push(depth.buffer, ...value.stages.map((s) => s.rgba.buffer));
-      return { value, transfer };
-    } finally {
-      out.free();
-      if (stages) scanner.setKeepStages(false);
-    }
+    // The results stay in the scanner until its next frame; each array is copied out
+    // once and then transferred.
+    const merged = scanner.cloud();
+    const families = [];
+    for (let k = 0; k < scanner.familyCount; k++) families.push(scanner.cloud(k));
+    const depth = scanner.depth();
+    const value = {
+      merged,
+      families,
+      depth,
+      width: scanner.width,
+      height: scanner.height,
+      stats,
+      ms,
+      stages: stages ? stagesOf(scanner) : [],
+    };
+    const transfer = [merged, ...families].flatMap(buffersOf);
+    transfer.push(depth.buffer, ...value.stages.map((s) => s.rgba.buffer));
+    return { value, transfer };
+  },
+  parseCrosstalk({ text }) {
+    return { value: [...wasm.parseCrosstalk(text)] };
   },
   encodePly({ positions, colors, pixels, families, ascii }) {
     const bytes = wasm.encodePly(positions, colors, pixels, families, Boolean(ascii));

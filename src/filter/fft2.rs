@@ -108,7 +108,7 @@ impl Fft2 {
 }
 
 fn fft_error(e: realfft::FftError) -> Error {
-    Error::Invalid(format!("internal FFT error: {e}"))
+    Error::Internal(format!("FFT: {e}"))
 }
 
 /// Smallest even n >= `min` whose only prime factors are 2, 3, 5 and 7 (RustFFT has

@@ -64,10 +64,50 @@ pub mod reference;
 
 use crate::error::{Error, Result};
 use crate::raster::{Image, Rgb};
-use crate::scan::FilterMode;
 use fft2::{fast_size, Fft2};
 use rustfft::num_complex::Complex32;
 use std::f32::consts::PI;
+use std::fmt;
+use std::str::FromStr;
+
+/// How the captured colours are turned into stripe colours.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum FilterMode {
+    /// The captured colours as they are (the paper's "direct estimation").
+    Direct,
+    /// Log-gradient restoration with the per-pixel best angle (paper eq. 5-8, section 4).
+    #[default]
+    LogGrad,
+    /// Log-gradient restoration at each family's dominant angle only, no per-pixel
+    /// rotation (the paper's Fig. 4(b), a teaching comparison).
+    LogGradNoRotation,
+}
+
+impl FromStr for FilterMode {
+    type Err = Error;
+    fn from_str(s: &str) -> Result<Self> {
+        match s {
+            "direct" => Ok(FilterMode::Direct),
+            "loggrad" => Ok(FilterMode::LogGrad),
+            "loggrad-norot" => Ok(FilterMode::LogGradNoRotation),
+            other => Err(Error::Setting {
+                name: "filter",
+                problem: format!("must be direct, loggrad or loggrad-norot, got {other:?}"),
+            }),
+        }
+    }
+}
+
+impl fmt::Display for FilterMode {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            FilterMode::Direct => "direct",
+            FilterMode::LogGrad => "loggrad",
+            FilterMode::LogGradNoRotation => "loggrad-norot",
+        })
+    }
+}
+
 
 /// Linear values below this are clamped before the log. 0.002 is about 8-bit code 15
 /// through gamma 2.2: the level where webcam noise is as large as the signal.
@@ -268,9 +308,7 @@ impl LogGradFilter {
     /// Plan for `width` x `height` frames.
     pub fn new(width: usize, height: usize) -> Result<Self> {
         if width < MIN_SIZE || height < MIN_SIZE {
-            return Err(Error::Invalid(format!(
-                "image of {width}x{height} is too small to filter (at least {MIN_SIZE}x{MIN_SIZE})"
-            )));
+            return Err(Error::ImageTooSmall { min: (MIN_SIZE, MIN_SIZE), got: (width, height) });
         }
         let (pw, ph) = (fast_size(width + PAD_MIN), fast_size(height + PAD_MIN));
         let fft = Fft2::new(pw, ph);
@@ -313,7 +351,7 @@ impl LogGradFilter {
     pub fn run(&mut self, linear: &Image<Rgb>, windows: &[FamilyWindow], mode: FilterMode, out: &mut [Restored]) -> Result<()> {
         linear.expect_size(self.width, self.height)?;
         if out.len() != windows.len() || out.iter().any(|r| r.width != self.width || r.height != self.height) {
-            return Err(Error::Invalid("filter output does not match the families or the image size".into()));
+            return Err(Error::Internal("filter output does not match the families or the image size".into()));
         }
         if mode == FilterMode::Direct {
             // One log image, copied to every family.

@@ -32,7 +32,7 @@ fn sample(plane: &[f32], w: usize, h: usize, x: f32, y: f32) -> f32 {
 pub fn restore_at_angle(linear: &Image<Rgb>, phi: f32) -> Result<[Vec<f32>; 3]> {
     let (w, h) = linear.size();
     if w < MIN_SIZE || h < MIN_SIZE {
-        return Err(Error::Invalid(format!("image of {w}x{h} is too small to filter (at least {MIN_SIZE}x{MIN_SIZE})")));
+        return Err(Error::ImageTooSmall { min: (MIN_SIZE, MIN_SIZE), got: (w, h) });
     }
     let side = ((w * w + h * h) as f32).sqrt().ceil() as usize + 4;
     let padded = fast_size(side + PAD_MIN);

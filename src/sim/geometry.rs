@@ -136,14 +136,14 @@ impl HeightField {
     ) -> Result<Self> {
         let finite = [x_range.0, x_range.1, y_range.0, y_range.1, spacing, z0].iter().all(|x| x.is_finite());
         if !finite || !(spacing > 0.0) || !(x_range.1 > x_range.0) || !(y_range.1 > y_range.0) {
-            return Err(Error::Invalid(format!(
+            return Err(Error::Scene(format!(
                 "height field: ranges {x_range:?} x {y_range:?}, spacing {spacing}, z0 {z0} must be finite, non-empty and positive"
             )));
         }
         let cells = |r: (f64, f64)| ((r.1 - r.0) / spacing).ceil().max(1.0);
         let (cx, cy) = (cells(x_range), cells(y_range));
         if (cx + 1.0) * (cy + 1.0) > 16e6 {
-            return Err(Error::Invalid(format!("height field: {cx} x {cy} cells is too many")));
+            return Err(Error::Scene(format!("height field: {cx} x {cy} cells is too many")));
         }
         let (nx, ny) = (cx as usize + 1, cy as usize + 1);
         let (x0, y0) = (x_range.0, y_range.0);
@@ -152,7 +152,7 @@ impl HeightField {
             for i in 0..nx {
                 let value = h(x0 + i as f64 * spacing, y0 + j as f64 * spacing);
                 if !value.is_finite() {
-                    return Err(Error::Invalid(format!("height field: h is {value} at node ({i}, {j})")));
+                    return Err(Error::Scene(format!("height field: h is {value} at node ({i}, {j})")));
                 }
                 heights.push(value);
             }
@@ -636,7 +636,7 @@ impl Shape {
 
     /// Refuse shapes with non-finite or degenerate parameters.
     pub fn validate(&self) -> Result<()> {
-        let bad = |what: &str| Err(Error::Invalid(format!("scene: {what}")));
+        let bad = |what: &str| Err(Error::Scene(format!("scene: {what}")));
         let finite = |v: DVec3| v.is_finite();
         match self {
             Shape::Plane { point, normal } => {

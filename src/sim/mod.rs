@@ -169,8 +169,8 @@ impl SimConfig {
             if value.is_finite() && range.contains(&value) {
                 Ok(())
             } else {
-                Err(Error::Invalid(format!(
-                    "simulator: {field} must be in {}..={}, got {value}",
+                Err(Error::Scene(format!(
+                    "{field} must be in {}..={}, got {value}",
                     range.start(),
                     range.end()
                 )))
@@ -190,8 +190,8 @@ impl SimConfig {
             }
         }
         if !(1..=MAX_SUPERSAMPLE).contains(&self.supersample) {
-            return Err(Error::Invalid(format!(
-                "simulator: supersample must be in 1..={MAX_SUPERSAMPLE}, got {}",
+            return Err(Error::Scene(format!(
+                "supersample must be in 1..={MAX_SUPERSAMPLE}, got {}",
                 self.supersample
             )));
         }
@@ -265,8 +265,8 @@ pub fn render_into(
     projector_image.expect_size(calib.projector.width as usize, calib.projector.height as usize)?;
     let (w, h) = (calib.camera.width as usize, calib.camera.height as usize);
     if w as u64 * h as u64 > MAX_CAMERA_PIXELS as u64 {
-        return Err(Error::Invalid(format!(
-            "simulator: a {w}x{h} camera is more than {MAX_CAMERA_PIXELS} pixels"
+        return Err(Error::Scene(format!(
+            "a {w}x{h} camera is more than {MAX_CAMERA_PIXELS} pixels"
         )));
     }
     let sizes = [frame.image.size(), frame.depth.size(), frame.projector.size(), frame.lit.size()];

@@ -75,7 +75,7 @@ impl Scene {
     /// - `occluders`: a horizontal bar, a vertical post and a diagonal bar at 650-750 mm
     ///   before a plane at 950 mm: depth edges in three directions, cast shadows, plain albedos.
     ///
-    /// Unknown names fail with [`Error::Invalid`] listing the known ones.
+    /// Unknown names fail with [`Error::Scene`] listing the known ones.
     ///
     /// ```
     /// let scene = stripelight::sim::Scene::builtin("sphere").unwrap();
@@ -89,7 +89,7 @@ impl Scene {
             "paper" => paper_scene(),
             "textured" => Ok(textured_scene()),
             "occluders" => Ok(occluders_scene()),
-            _ => Err(Error::Invalid(format!(
+            _ => Err(Error::Scene(format!(
                 "unknown scene {name:?}; known scenes: {}",
                 Scene::NAMES.join(", ")
             ))),
