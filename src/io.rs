@@ -4,7 +4,9 @@
 
 use crate::error::{Error, Result};
 use crate::raster::Image;
-use std::io::Cursor;
+use std::ffi::OsString;
+use std::io::{Cursor, Write};
+use std::path::{Path, PathBuf};
 
 /// Decode PNG or JPEG bytes (any bit depth, with or without alpha) to 8-bit RGB.
 /// Anything else is refused with [`Error::ImageDecode`] naming the problem.
@@ -27,7 +29,7 @@ pub fn decode_rgb8(bytes: &[u8]) -> Result<Image<[u8; 3]>> {
 }
 
 /// Read a PNG or JPEG file to 8-bit RGB.
-pub fn read_rgb8(path: &std::path::Path) -> Result<Image<[u8; 3]>> {
+pub fn read_rgb8(path: &Path) -> Result<Image<[u8; 3]>> {
     let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
     decode_rgb8(&bytes).map_err(|e| match e {
         Error::ImageDecode(m) => Error::ImageDecode(format!("{}: {m}", path.display())),
@@ -51,9 +53,48 @@ pub fn encode_png(img: &Image<[u8; 3]>) -> Result<Vec<u8>> {
     Ok(out)
 }
 
-/// Write bytes to `path`, with an error that names the path.
-pub fn write_file(path: &std::path::Path, bytes: &[u8]) -> Result<()> {
-    std::fs::write(path, bytes).map_err(|e| Error::io(path, e))
+/// Write bytes to `path` whole or not at all, with an error that names the path.
+///
+/// The bytes go to a temporary file beside `path` (`.NAME.tmp-PID`: the same directory,
+/// so that the rename stays on one file system), which is synced to disk and only then
+/// renamed over `path`. If any step fails the temporary file is removed and whatever
+/// was at `path` stays as it was: an interrupted run never leaves a truncated output.
+pub fn write_file(path: &Path, bytes: &[u8]) -> Result<()> {
+    let tmp = temp_path(path).map_err(|e| Error::io(path, e))?;
+    let written = write_synced(&tmp, bytes).and_then(|()| std::fs::rename(&tmp, path));
+    written.map_err(|e| {
+        // Fails harmlessly when the temporary file was never created.
+        let _ = std::fs::remove_file(&tmp);
+        Error::io(path, e)
+    })
+}
+
+/// Where [`write_file`] puts the bytes for `path` before the rename.
+fn temp_path(path: &Path) -> std::io::Result<PathBuf> {
+    let Some(name) = path.file_name() else {
+        return Err(std::io::Error::new(std::io::ErrorKind::InvalidInput, "not a file name"));
+    };
+    let mut tmp = OsString::from(".");
+    tmp.push(name);
+    tmp.push(format!(".tmp-{}", process_id()));
+    Ok(path.with_file_name(tmp))
+}
+
+/// Create (or truncate) `path`, write `bytes` and wait until they are on disk.
+fn write_synced(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
+    let mut file = std::fs::File::create(path)?;
+    file.write_all(bytes)?;
+    file.sync_all()
+}
+
+/// This process's id. wasm32 has neither processes (`std::process::id` panics there)
+/// nor files (the write then fails with an error naming the path).
+fn process_id() -> u32 {
+    if cfg!(target_arch = "wasm32") {
+        0
+    } else {
+        std::process::id()
+    }
 }
 
 /// Encode a single-channel float image as little-endian grayscale PFM
@@ -129,6 +170,75 @@ mod tests {
         let back = decode_pfm(&bytes).unwrap();
         assert_eq!(back.get(0, 0), 1.5);
         assert!(back.get(2, 1).is_nan());
+    }
+
+    /// A fresh, empty directory for one test, removed by the test when it passes.
+    #[cfg(not(target_arch = "wasm32"))]
+    fn scratch_dir(test: &str) -> PathBuf {
+        let dir = std::env::temp_dir().join(format!("stripelight-io-{}-{test}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        dir
+    }
+
+    /// The names in `dir`, sorted.
+    #[cfg(not(target_arch = "wasm32"))]
+    fn names_in(dir: &Path) -> Vec<String> {
+        let mut names: Vec<String> = std::fs::read_dir(dir)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        names.sort();
+        names
+    }
+
+    #[cfg(not(target_arch = "wasm32"))]
+    #[test]
+    fn write_file_leaves_exactly_the_new_bytes() {
+        let dir = scratch_dir("replace");
+        let out = dir.join("cloud.ply");
+        write_file(&out, b"a first, longer content").unwrap();
+        write_file(&out, b"second").unwrap();
+        assert_eq!(std::fs::read(&out).unwrap(), b"second");
+        assert_eq!(names_in(&dir), ["cloud.ply"]);
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[cfg(not(target_arch = "wasm32"))]
+    #[test]
+    fn write_file_into_a_missing_directory_names_the_path_and_leaves_nothing() {
+        let dir = scratch_dir("missing");
+        let out = dir.join("missing").join("depth.pfm");
+        match write_file(&out, b"Pf") {
+            Err(Error::Io { path, .. }) => assert_eq!(path, out.display().to_string()),
+            other => panic!("expected an I/O error naming {}, got {other:?}", out.display()),
+        }
+        assert!(names_in(&dir).is_empty());
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[cfg(not(target_arch = "wasm32"))]
+    #[test]
+    fn a_failed_write_keeps_what_was_there() {
+        let dir = scratch_dir("failed");
+        // The destination is a directory: the rename fails, the directory is untouched.
+        let taken = dir.join("stages");
+        std::fs::create_dir(&taken).unwrap();
+        std::fs::write(taken.join("merged.png"), b"old").unwrap();
+        assert!(matches!(write_file(&taken, b"new"), Err(Error::Io { .. })));
+        assert_eq!(std::fs::read(taken.join("merged.png")).unwrap(), b"old");
+        assert_eq!(names_in(&dir), ["stages"]);
+        // An existing file whose temporary file cannot be created (a directory is in the
+        // way): the old content stays.
+        let out = dir.join("calib.json");
+        std::fs::write(&out, b"old").unwrap();
+        let blocker = temp_path(&out).unwrap();
+        std::fs::create_dir(&blocker).unwrap();
+        assert!(matches!(write_file(&out, b"new"), Err(Error::Io { .. })));
+        assert_eq!(std::fs::read(&out).unwrap(), b"old");
+        std::fs::remove_dir(&blocker).unwrap();
+        assert_eq!(names_in(&dir), ["calib.json", "stages"]);
+        std::fs::remove_dir_all(&dir).unwrap();
     }
 
     #[test]
