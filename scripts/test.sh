@@ -12,6 +12,9 @@ echo "== wasm tests in headless Chromium" >&2
 export CHROMEDRIVER=/usr/bin/chromedriver
 cargo test --locked --target wasm32-unknown-unknown --lib --tests
 
+echo "== demo server test" >&2
+python3 -m unittest tests/serve_test.py
+
 if [ -f tests/e2e/run.mjs ]; then
   echo "== end-to-end browser test" >&2
   scripts/build-web.sh
