@@ -1,0 +1,198 @@
+// Panel 3, calibration: the camera and projector the decoder assumes (the demo rig, an
+// approximate rig typed into the form, or a calibration JSON), drawn as a top view and
+// kept in step with the real devices' sizes; and the camera's colour mixing (none, the
+// simulator's, or measured: typed in, or measured with the projector and the camera on a
+// white card).
+
+import { $, state, bridge, busy, setStatus, showMessage, download } from './page.js';
+import { drawRig, rigOf, hfovDeg } from './rig.js';
+import { generateSpec, setSpec, checkSpecMatchesCalibration } from './panel-pattern.js';
+import { matchCameraView } from './panel-results.js';
+import { projectorIsOpen, showOnProjector, sendPatternToProjector } from './projector-link.js';
+
+/** How long each flat colour stays up before its frame is taken: the projector redraws
+ * and the camera delivers a few frames in this time. */
+const COLOUR_SETTLE_MS = 800;
+
+/** Use a calibration (JSON text; `source` is 'demo', 'rig' or a file name) from now on. */
+export async function setCalibration(json, source) {
+  const canonical = await bridge.request('parseCalibration', { json });
+  state.calibJson = canonical;
+  state.calib = JSON.parse(canonical);
+  state.calibSource = source;
+  const c = state.calib;
+  const where = source === 'demo' ? 'the demo rig' : source === 'rig' ? 'the approximate rig below' : source;
+  $('calib-summary').textContent =
+    `From ${where}: camera ${c.camera.width}x${c.camera.height} (${hfovDeg(c.camera).toFixed(1)}° wide), ` +
+    `projector ${c.projector.width}x${c.projector.height} (${hfovDeg(c.projector).toFixed(1)}° wide).`;
+  drawRig($('rig-diagram'), c);
+  fillRigForm(rigOf(c));
+  matchCameraView(c);
+  if (state.specSource === 'generated') {
+    if (!state.spec || state.spec.width !== c.projector.width || state.spec.height !== c.projector.height) {
+      await generateSpec();
+    }
+  } else {
+    checkSpecMatchesCalibration();
+  }
+}
+
+function readRigForm() {
+  const f = $('rig-form').elements;
+  const num = (name) => Number(f[name].value);
+  return {
+    camera_width: num('camera_width'),
+    camera_height: num('camera_height'),
+    camera_hfov_deg: num('camera_hfov_deg'),
+    projector_width: num('projector_width'),
+    projector_height: num('projector_height'),
+    projector_hfov_deg: num('projector_hfov_deg'),
+    baseline_mm: [num('baseline_x'), num('baseline_y'), num('baseline_z')],
+    aim_distance_mm: num('aim_distance_mm'),
+  };
+}
+
+function fillRigForm(rig) {
+  const f = $('rig-form').elements;
+  for (const [k, v] of Object.entries(rig)) {
+    if (k === 'baseline_mm') {
+      [f.baseline_x.value, f.baseline_y.value, f.baseline_z.value] = v;
+    } else if (f[k]) {
+      f[k].value = v;
+    }
+  }
+}
+
+/** Use the calibration of an approximate rig; `why`, if given, becomes a message. */
+async function applyRig(rig, why) {
+  const json = await bridge.request('calibrationFromRig', { rig });
+  await setCalibration(json, 'rig');
+  if (why) showMessage(why);
+}
+
+/**
+ * Keep a demo or approximate rig in step with a real device's size (`device` is 'camera'
+ * or 'projector'); a loaded calibration is left alone, with an error message if it differs.
+ */
+export async function followDeviceSize(device, width, height) {
+  const c = state.calib;
+  if (!c || (c[device].width === width && c[device].height === height)) return;
+  if (state.calibSource === 'demo' || state.calibSource === 'rig') {
+    const rig = { ...rigOf(c), [`${device}_width`]: width, [`${device}_height`]: height };
+    await applyRig(rig, `The ${device} gives ${width}x${height}: the approximate rig now uses that size (same field of view).`);
+  } else {
+    showMessage(
+      `The ${device} gives ${width}x${height} but the calibration (${state.calibSource}) says ` +
+        `${c[device].width}x${c[device].height}. Use the calibrated size or load a matching calibration.`,
+      'error',
+    );
+  }
+}
+
+/** Load a JSON file: a pattern spec or a calibration, told apart by their fields. */
+export async function loadJsonFile(file) {
+  const text = await file.text();
+  let parsed;
+  try {
+    parsed = JSON.parse(text);
+  } catch (e) {
+    throw new Error(`not valid JSON (${e.message})`);
+  }
+  if (parsed?.format === 'stripelight-pattern') {
+    await setSpec(text, file.name);
+    showMessage(`Pattern spec ${file.name} loaded: ${state.spec.families.length} directions, ${state.spec.width}x${state.spec.height}.`);
+  } else if (parsed && typeof parsed === 'object' && 'camera' in parsed) {
+    await setCalibration(text, file.name);
+    showMessage(`Calibration ${file.name} loaded.`);
+  } else {
+    throw new Error('neither a calibration (no "camera" field) nor a pattern spec (no "format": "stripelight-pattern")');
+  }
+}
+
+/** Use a measured colour-mixing matrix (9 numbers, row-major) for camera and dropped frames. */
+function useMeasuredCrosstalk(values) {
+  state.measuredCrosstalk = values;
+  state.crosstalk = 'measured';
+  $('crosstalk').value = 'measured';
+  $('crosstalk-values').value = values.map((v) => v.toFixed(4)).join(',');
+  showMessage('Measured colour mixing in use for camera and dropped frames.');
+}
+
+/**
+ * The guided colour calibration: the projector shows full red, green, blue and black in
+ * turn on a white card, the camera captures each, and the worker turns the four frames
+ * into the camera's colour-mixing matrix, which this returns. The pattern comes back
+ * afterwards.
+ */
+async function measureColourMixing(camera) {
+  if (!projectorIsOpen()) throw new Error('Open the projector window first, then point the camera at a white card it lights.');
+  if (!camera.running) throw new Error('Start the camera first, pointed at a white card lit by the projector.');
+  const { width, height } = state.patternPixels;
+  const frames = [];
+  try {
+    for (const [label, rgb] of [['red', [255, 0, 0]], ['green', [0, 255, 0]], ['blue', [0, 0, 255]], ['black', [0, 0, 0]]]) {
+      const rgba = new Uint8ClampedArray(width * height * 4);
+      for (let i = 0; i < rgba.length; i += 4) rgba.set([...rgb, 255], i);
+      showOnProjector({ width, height, rgba, label: `colour calibration: ${label}` });
+      setStatus(`colour calibration: ${label}`);
+      await new Promise((resolve) => setTimeout(resolve, COLOUR_SETTLE_MS));
+      frames.push(camera.capture());
+    }
+  } finally {
+    sendPatternToProjector();
+  }
+  const { width: w, height: h } = frames[0];
+  return bridge.request('estimateCrosstalk', { frames: frames.map((f) => f.rgba), width: w, height: h });
+}
+
+/**
+ * Bind the panel's controls. `camera` is the page's Camera (for the guided colour
+ * calibration); `onMixingChanged()` runs whenever the colour-mixing setting changes.
+ */
+export function bindCalibrationPanel({ camera, onMixingChanged }) {
+  const useMeasured = (values) => {
+    useMeasuredCrosstalk(values);
+    onMixingChanged();
+  };
+  $('rig-form').onsubmit = (e) => {
+    e.preventDefault();
+    busy('building the calibration', () => applyRig(readRigForm(), 'Approximate rig applied.'))
+      .then(() => setStatus('calibration updated'))
+      .catch((err) => showMessage(err.message, 'error'));
+  };
+  $('calib-file').onchange = (e) => {
+    const file = e.target.files[0];
+    e.target.value = '';
+    if (file) loadJsonFile(file).catch((err) => showMessage(`${file.name}: ${err.message}`, 'error'));
+  };
+  $('calib-demo').onclick = () =>
+    bridge
+      .request('defaultCalibration')
+      .then((json) => setCalibration(json, 'demo'))
+      .catch((e) => showMessage(e.message, 'error'));
+  $('calib-download').onclick = () => download(state.calibJson, 'stripelight-calibration.json', 'application/json');
+  $('crosstalk').onchange = (e) => {
+    if (e.target.value === 'measured' && !state.measuredCrosstalk) {
+      showMessage('Type the 9 numbers that `stripelight crosstalk` printed into "Measured colour mixing" first.', 'error');
+      e.target.value = state.crosstalk;
+      return;
+    }
+    state.crosstalk = e.target.value;
+    onMixingChanged();
+  };
+  // The numbers are read and checked (9 finite numbers, an invertible matrix) by the
+  // same parser as the command line's --crosstalk, in the worker.
+  $('crosstalk-values').onchange = (e) => {
+    bridge
+      .request('parseCrosstalk', { text: e.target.value })
+      .then(useMeasured)
+      .catch((err) => showMessage(`Colour mixing: ${err.message}`, 'error'));
+  };
+  $('measure-mixing').onclick = () =>
+    measureColourMixing(camera)
+      .then((values) => {
+        useMeasured(values);
+        setStatus('colour mixing measured');
+      })
+      .catch((e) => showMessage(e.message, 'error'));
+}

@@ -1,0 +1,33 @@
+// Export: the current frame's merged cloud as PLY and its depth map as PFM (formats as in
+// conventions.md: mm, camera frame), encoded by a worker and saved as downloads.
+
+import { $, state, bridge, showMessage, download } from './page.js';
+
+/** The current frame's name made safe for a file name, without its extension. */
+function baseName() {
+  return (state.current?.name ?? 'scan').replace(/\.[a-z0-9]+$/i, '').replace(/[^a-z0-9_-]+/gi, '-');
+}
+
+async function exportPly() {
+  const r = state.current?.result;
+  if (!r) return showMessage('Nothing to export yet: scan a frame first.', 'error');
+  const m = r.merged;
+  // Copies, transferred to the worker: the viewer keeps the originals.
+  const copy = { positions: m.positions.slice(), colors: m.colors.slice(), pixels: m.pixels.slice(), families: m.families.slice() };
+  const bytes = await bridge.request('encodePly', copy, Object.values(copy).map((a) => a.buffer));
+  download(bytes, `stripelight-${baseName()}.ply`, 'application/octet-stream');
+}
+
+async function exportDepth() {
+  const r = state.current?.result;
+  if (!r) return showMessage('Nothing to export yet: scan a frame first.', 'error');
+  const depth = r.depth.slice();
+  const bytes = await bridge.request('encodePfm', { depth, width: r.width, height: r.height }, [depth.buffer]);
+  download(bytes, `stripelight-${baseName()}-depth.pfm`, 'application/octet-stream');
+}
+
+/** Bind the two export buttons. */
+export function bindExportButtons() {
+  $('export-ply').onclick = () => exportPly().catch((e) => showMessage(e.message, 'error'));
+  $('export-pfm').onclick = () => exportDepth().catch((e) => showMessage(e.message, 'error'));
+}
