@@ -170,6 +170,13 @@ pub fn estimate_crosstalk(
     Ok(m.iter().flatten().copied().collect())
 }
 
+/// The 8-bit camera value from which a channel counts as clipped (the page's exposure
+/// meter uses the decoder's level).
+#[wasm_bindgen(js_name = saturationLevel)]
+pub fn saturation_level() -> u8 {
+    crate::raster::SATURATED
+}
+
 /// The camera's colour mixing typed by a person: 9 numbers, row by row, separated by
 /// commas, semicolons or white space; returns them, checked (finite, invertible).
 #[wasm_bindgen(js_name = parseCrosstalk)]

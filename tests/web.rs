@@ -105,7 +105,7 @@ fn a_simulated_frame_gives_a_plausible_cloud() {
         assert_eq!(s.rgba().length(), s.width() * s.height() * 4, "stage {}", s.name());
         assert!(!s.caption().is_empty());
     }
-    assert!(stages.iter().any(|s| s.caption().contains("(direct)")), "the stages are the direct scan's");
+    assert!(stages.iter().any(|s| s.caption().contains("(log scale, direct)")), "the stages are the direct scan's");
 }
 
 /// The stored frame the end-to-end test also uses: the simulator's `textured` scene lit

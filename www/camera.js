@@ -7,7 +7,9 @@ const CLIPPED_LIMIT = 0.02;
 /** Mean brightness (0..255, max over channels) below which a frame counts as too dark. */
 const DARK_MEAN = 45;
 /** A channel at or above this value is clipped. */
-const CLIP_LEVEL = 250;
+/** Camera values from this level count as clipped; the decoder's own level
+ * (`raster::SATURATED`), set from the worker at start-up (`Camera.clipLevel`). */
+let clipLevel = 255;
 /** Exposure meter size: a cheap thumbnail is plenty for percentages. */
 const METER_WIDTH = 160;
 
@@ -30,6 +32,11 @@ export function describeCameraError(e) {
 }
 
 export class Camera {
+  /** Set the level from which the exposure meter counts a value as clipped. */
+  static set clipLevel(level) {
+    clipLevel = level;
+  }
+
   /**
    * @param {HTMLVideoElement} video live preview
    * @param {HTMLCanvasElement} meterCanvas exposure thumbnail (clipped pixels red, dark ones blue)
@@ -165,7 +172,7 @@ export class Camera {
       for (let i = 0; i < d.length; i += 4) {
         const max = Math.max(d[i], d[i + 1], d[i + 2]);
         sum += max;
-        if (max >= CLIP_LEVEL) {
+        if (max >= clipLevel) {
           clipped++;
           d[i] = 255; d[i + 1] = 0; d[i + 2] = 0;
         } else if (max < 16) {

@@ -78,6 +78,9 @@ const handlers = {
   sceneNames() {
     return { value: wasm.sceneNames() };
   },
+  saturationLevel() {
+    return { value: wasm.saturationLevel() };
+  },
   simulatorCrosstalk() {
     return { value: [...wasm.simulatorCrosstalk()] };
   },
