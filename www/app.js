@@ -8,8 +8,13 @@
 //   panel-frames.js       frames list and scanning: drops, simulated scenes, current frame
 //   panel-calibration.js  3 calibration: rig, calibration files, colour mixing
 //   panel-results.js      viewer, depth map, teaching view (draws only)
+//   viewer.js             the WebGL point-cloud viewer (viewer-program.js: its shaders;
+//                         viewer-orbit.js: its orbit camera and mouse and touch controls)
 //   panel-export.js       PLY and PFM downloads
 //   projector-link.js     the projector window
+//   camera.js             the webcam (getUserMedia), its exposure meter and frame grabs
+//   bridge.js, worker.js  the decoding workers and their message protocol
+//   frame-size.js         the largest frame the page decodes, read from image headers
 //
 // Modules import only "downwards" in this order: page, projector-link, pattern, results,
 // calibration, frames, camera (export and results need page only). Where a module must
@@ -23,7 +28,7 @@ import { setCalibration, followDeviceSize, bindCalibrationPanel } from './panel-
 import {
   bindFramesPanel, fillScenes, handleFiles, redecodeCurrent, refreshCurrent, rescanShownSample, scanScene, summary,
 } from './panel-frames.js';
-import { camera, bindCameraPanel } from './panel-camera.js';
+import { camera, bindCameraPanel, stopContinuous } from './panel-camera.js';
 import { bindExportButtons } from './panel-export.js';
 import { Camera } from './camera.js';
 
@@ -32,7 +37,10 @@ const SAMPLE_SCENE = 'sphere';
 
 function bindPanels() {
   bindPatternPanel({ onDirectionsChanged: rescanShownSample });
-  bindProjectorLink({ onScreenSize: (width, height) => followDeviceSize('projector', width, height) });
+  bindProjectorLink({
+    onScreenSize: (width, height) => followDeviceSize('projector', width, height),
+    onClosed: stopContinuous,
+  });
   bindCameraPanel();
   bindFramesPanel();
   bindCalibrationPanel({ camera, onMixingChanged: () => refreshCurrent() });

@@ -1,6 +1,7 @@
 // Webcam capture: device choice, a resolution request, a live preview, fixed exposure
 // and white balance where the track allows it, an exposure meter, and frame grabs as
-// RGBA for the decoder.
+// RGBA for the decoder. A camera that ends by itself (unplugged, switched off, taken by
+// another program) is stopped here and reported to the page.
 
 /** Fraction of clipped pixels above which a frame counts as over-exposed. */
 const CLIPPED_LIMIT = 0.02;
@@ -41,11 +42,14 @@ export class Camera {
    * @param {HTMLVideoElement} video live preview
    * @param {HTMLCanvasElement} meterCanvas exposure thumbnail (clipped pixels red, dark ones blue)
    * @param {(report: {clipped: number, dark: number, mean: number, verdict: string}) => void} onMeter
+   * @param {() => void} onEnded the running camera's track ended without the page stopping
+   *   it; the camera is already stopped when this runs
    */
-  constructor(video, meterCanvas, onMeter) {
+  constructor(video, meterCanvas, onMeter, onEnded) {
     this.video = video;
     this.meterCanvas = meterCanvas;
     this.onMeter = onMeter;
+    this.onEnded = onEnded;
     this.stream = null;
     this.grabCanvas = document.createElement('canvas');
     this.meterTimer = 0;
@@ -79,10 +83,13 @@ export class Camera {
     }
     const video = { width: { ideal: width }, height: { ideal: height }, frameRate: { ideal: 30 } };
     if (deviceId) video.deviceId = { exact: deviceId };
-    this.stream = await navigator.mediaDevices.getUserMedia({ video, audio: false });
-    this.video.srcObject = this.stream;
+    const stream = await navigator.mediaDevices.getUserMedia({ video, audio: false });
+    this.stream = stream;
+    // `ended` fires when the device goes away, never for the page's own track.stop().
+    for (const track of stream.getTracks()) track.addEventListener('ended', () => this.#ended(stream), { once: true });
+    this.video.srcObject = stream;
     await this.video.play().catch(() => {});
-    await this.#firstFrame();
+    await this.#firstFrame(stream);
     const notes = lockExposure ? await this.#lockAutomatics() : ['exposure and white balance left automatic'];
     this.#startMeter();
     return { width: this.video.videoWidth, height: this.video.videoHeight, notes };
@@ -125,11 +132,19 @@ export class Camera {
     return { width, height, rgba: ctx.getImageData(0, 0, width, height).data };
   }
 
-  #firstFrame() {
+  /** The device ended `stream`: stop (if it is still this camera's) and tell the page. */
+  #ended(stream) {
+    if (this.stream !== stream) return;
+    this.stop();
+    this.onEnded();
+  }
+
+  #firstFrame(stream) {
     return new Promise((resolve, reject) => {
       const started = performance.now();
       const check = () => {
-        if (this.video.videoWidth > 0 && this.video.readyState >= 2) resolve();
+        if (this.stream !== stream) reject(new Error('the camera ended while it was starting'));
+        else if (this.video.videoWidth > 0 && this.video.readyState >= 2) resolve();
         else if (performance.now() - started > 10_000) reject(new Error('the camera gave no picture within 10 s'));
         else setTimeout(check, 30);
       };

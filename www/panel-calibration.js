@@ -72,21 +72,26 @@ async function applyRig(rig, why) {
 
 /**
  * Keep a demo or approximate rig in step with a real device's size (`device` is 'camera'
- * or 'projector'); a loaded calibration is left alone, with an error message if it differs.
+ * or 'projector'); a loaded calibration is left alone, with an error message if it differs
+ * (unless `report` is false: the caller says it). Resolves to whether the calibration now
+ * has that size.
  */
-export async function followDeviceSize(device, width, height) {
+export async function followDeviceSize(device, width, height, { report = true } = {}) {
   const c = state.calib;
-  if (!c || (c[device].width === width && c[device].height === height)) return;
+  if (!c || (c[device].width === width && c[device].height === height)) return true;
   if (state.calibSource === 'demo' || state.calibSource === 'rig') {
     const rig = { ...rigOf(c), [`${device}_width`]: width, [`${device}_height`]: height };
     await applyRig(rig, `The ${device} gives ${width}x${height}: the approximate rig now uses that size (same field of view).`);
-  } else {
+    return true;
+  }
+  if (report) {
     showMessage(
       `The ${device} gives ${width}x${height} but the calibration (${state.calibSource}) says ` +
         `${c[device].width}x${c[device].height}. Use the calibrated size or load a matching calibration.`,
       'error',
     );
   }
+  return false;
 }
 
 /** Load a JSON file: a pattern spec or a calibration, told apart by their fields. */
@@ -136,6 +141,7 @@ async function measureColourMixing(camera) {
       showOnProjector({ width, height, rgba, label: `colour calibration: ${label}` });
       setStatus(`colour calibration: ${label}`);
       await new Promise((resolve) => setTimeout(resolve, COLOUR_SETTLE_MS));
+      if (!projectorIsOpen()) throw new Error('The projector window was closed during the colour calibration: open it again, then measure again.');
       frames.push(camera.capture());
     }
   } finally {

@@ -1,6 +1,8 @@
 // Panel 2, the camera: choosing and starting a webcam, its exposure meter and sliders,
 // capturing one frame to scan, and continuous scanning, where the two workers decode
-// alternate video frames.
+// alternate video frames. A camera that ends (unplugged, taken by another program) stops
+// scanning with a message; one that changes resolution is followed by an approximate rig,
+// while a loaded calibration, made for one size, stops continuous scanning with a message.
 
 import { $, state, WORKERS, busy, setStatus, showMessage } from './page.js';
 import { Camera, describeCameraError } from './camera.js';
@@ -8,10 +10,18 @@ import { followDeviceSize } from './panel-calibration.js';
 import { addFrame, scanEntry, scanLive, showLiveResult, summary } from './panel-frames.js';
 
 /** The webcam, its preview and its exposure meter. */
-export const camera = new Camera($('camera-video'), $('exposure-canvas'), showMeter);
+export const camera = new Camera($('camera-video'), $('exposure-canvas'), showMeter, cameraEnded);
 
 /** Controls that only work while the camera runs. */
 const CAMERA_CONTROLS = ['capture', 'continuous', 'camera-stop'];
+
+/** What could and could not be fixed on the running camera (shown after its size). */
+let cameraNotes = [];
+
+function showCameraInfo() {
+  const { videoWidth: width, videoHeight: height } = camera.video;
+  $('camera-info').textContent = [`${width}x${height}`, ...cameraNotes].join(' · ');
+}
 
 function showMeter({ clipped, dark, mean, verdict }) {
   const el = $('exposure');
@@ -25,7 +35,8 @@ async function startCamera() {
     const got = await busy('starting the camera', () =>
       camera.start({ deviceId: $('camera-device').value, width, height, lockExposure: $('lock-exposure').checked }),
     );
-    $('camera-info').textContent = `${got.width}x${got.height} · ${got.notes.join(' · ')}`;
+    cameraNotes = got.notes;
+    showCameraInfo();
     for (const id of CAMERA_CONTROLS) $(id).disabled = false;
     document.body.classList.add('camera-on');
     await fillDevices();
@@ -42,12 +53,53 @@ async function startCamera() {
 }
 
 function stopCamera() {
-  setContinuous(false);
   camera.stop();
+  cameraStopped();
+  setStatus('camera stopped');
+}
+
+/** Back to the stopped state: no scanning, controls that need a camera disabled. */
+function cameraStopped() {
+  setContinuous(false);
   for (const id of CAMERA_CONTROLS) $(id).disabled = true;
   document.body.classList.remove('camera-on');
   $('exposure').textContent = '';
-  setStatus('camera stopped');
+}
+
+/** The camera ended by itself (camera.js has already stopped it). */
+function cameraEnded() {
+  const scanning = state.continuous;
+  cameraStopped();
+  const text =
+    'The camera stopped delivering pictures: it was unplugged, switched off or taken by another program' +
+    `${scanning ? ', so continuous scanning stopped' : ''}. Press “Start camera” to use it again.`;
+  $('camera-info').textContent = text;
+  showMessage(text, 'error');
+  setStatus('camera lost');
+}
+
+/** Stop continuous scanning (the projector window was closed); returns whether it ran. */
+export function stopContinuous() {
+  const was = state.continuous;
+  setContinuous(false);
+  return was;
+}
+
+/**
+ * The camera gives frames of another size than the calibration's camera: at start, or
+ * because its driver or another program changed its mode while it runs. An approximate
+ * rig follows (as at start) and this resolves to true; a loaded calibration cannot, and
+ * this resolves to false without a message (the caller says what it means).
+ */
+async function followCamera(width, height) {
+  showCameraInfo();
+  return followDeviceSize('camera', width, height, { report: false });
+}
+
+/** Whether a frame has the calibration camera's size (true before any calibration). */
+function fitsCalibration(frame) {
+  const c = state.calib?.camera;
+  return !c || (frame.width === c.width && frame.height === c.height);
 }
 
 /** List the cameras (their names are known once access was granted), keeping the choice. */
@@ -88,6 +140,8 @@ async function captureOnce() {
     return;
   }
   const name = `camera ${new Date().toLocaleTimeString('en-GB')}`;
+  // A loaded calibration of another size is left alone; scanEntry says so with the frame.
+  if (!fitsCalibration(frame)) await followCamera(frame.width, frame.height).catch((e) => showMessage(e.message, 'error'));
   const entry = addFrame(name, frame, 'camera');
   try {
     await busy(`decoding ${name}`, () => scanEntry(entry));
@@ -101,7 +155,8 @@ async function captureOnce() {
 /**
  * Continuous scanning: each new video frame goes to a worker when one is free, so with
  * two workers consecutive frames alternate between them and two are in flight; a result
- * older than the one on screen is dropped.
+ * older than the one on screen is dropped. When the frames change size, no frame is sent
+ * until the calibration has followed (or scanning stops, see followCamera).
  */
 let continuousRun = 0;
 function setContinuous(on) {
@@ -110,7 +165,29 @@ function setContinuous(on) {
   const run = ++continuousRun; // a loop from an earlier switch-on stops at its next frame
   if (!on) return;
   const started = performance.now();
-  let sent = 0, shown = 0, inFlight = 0, done = 0;
+  let sent = 0, shown = 0, inFlight = 0, done = 0, following = false;
+  const stop = (text) => {
+    if (run !== continuousRun) return;
+    setContinuous(false);
+    showMessage(`Continuous scanning stopped: ${text}`, 'error');
+    setStatus('continuous scanning stopped');
+  };
+  const follow = ({ width, height }) => {
+    following = true;
+    const c = state.calib;
+    followCamera(width, height)
+      .then((fits) => {
+        if (!fits) {
+          stop(
+            `the camera now gives ${width}x${height} but the calibration (${state.calibSource}) is for ` +
+              `${c.camera.width}x${c.camera.height}. Set the camera back to ${c.camera.width}x${c.camera.height} ` +
+              `or load a calibration for ${width}x${height}.`,
+          );
+        }
+      })
+      .catch((e) => stop(e.message))
+      .finally(() => (following = false));
+  };
   const nextFrame = () => {
     if ('requestVideoFrameCallback' in HTMLVideoElement.prototype) camera.video.requestVideoFrameCallback(tick);
     else requestAnimationFrame(tick);
@@ -118,13 +195,14 @@ function setContinuous(on) {
   const tick = () => {
     if (run !== continuousRun || !camera.running) return;
     nextFrame();
-    if (inFlight >= WORKERS) return;
+    if (inFlight >= WORKERS || following) return;
     let frame;
     try {
       frame = camera.capture();
     } catch {
       return;
     }
+    if (!fitsCalibration(frame)) return follow(frame);
     const seq = ++sent;
     inFlight++;
     scanLive(frame)
@@ -136,11 +214,7 @@ function setContinuous(on) {
         const fps = (1000 * done) / (performance.now() - started);
         setStatus(`scanning continuously: ${fps.toFixed(1)} frames/s · ${summary(live)}`);
       })
-      .catch((e) => {
-        if (run !== continuousRun) return;
-        setContinuous(false);
-        showMessage(`Continuous scanning stopped: ${e.message}`, 'error');
-      })
+      .catch((e) => stop(e.message))
       .finally(() => inFlight--);
   };
   tick();
@@ -152,4 +226,6 @@ export function bindCameraPanel() {
   $('camera-stop').onclick = () => stopCamera();
   $('capture').onclick = () => captureOnce();
   $('continuous').onchange = (e) => setContinuous(e.target.checked);
+  // The preview's size follows the camera's: keep the size shown in the panel current.
+  camera.video.addEventListener('resize', () => camera.running && showCameraInfo());
 }

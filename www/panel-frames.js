@@ -223,7 +223,7 @@ export async function handleFiles(files) {
       frame = await bridge.request('decodeImage', { bytes }, [bytes]);
     } catch (e) {
       showMessage(`${file.name}: ${e.message}`, 'error');
-      setStatus(`${file.name} is not a frame`);
+      setStatus(`${file.name} was not read`);
       continue;
     }
     const entry = addFrame(file.name, frame, 'file');

@@ -7,39 +7,52 @@
 //                   {type: 'reply', id, ok: true, value}    a request succeeded
 //                   {type: 'reply', id, ok: false, error, fatal}
 //                                                            it failed; `fatal` means the
-//                                                            wasm instance panicked and this
-//                                                            worker must be replaced
+//                                                            wasm instance panicked or ran
+//                                                            out of memory, and this worker
+//                                                            closes and must be replaced
 //   page -> worker  {type, id, ...payload}                  one of the request types in
 //                                                            `handlers` below
 // Messages that arrive while wasm is loading wait in a queue and run in order once it
-// has loaded. Result buffers are transferred, never copied.
+// has loaded. Result buffers are transferred, never copied. Frames larger than
+// MAX_FRAME_PIXELS (frame-size.js) are refused before they are decoded or scanned.
+// `panicForTest` and `outOfMemoryForTest` exist only for the end-to-end test.
 
 import init, * as wasm from '../pkg/stripelight.js';
+import { MAX_FRAME_PIXELS, frameSizeProblem, imageSize } from './frame-size.js';
 
-/** Scanners kept alive, keyed by spec and calibration (the size comes with the calibration). */
+/**
+ * Scanners kept alive, keyed by spec and calibration (the size comes with the
+ * calibration): at most MAX_SCANNERS, and together at most MAX_FRAME_PIXELS pixels, so
+ * that a worker holds the buffers of one largest frame at most (a scanner's buffers are
+ * many times its frame's size; a 12-megapixel one takes about 2.5 GB).
+ */
 const MAX_SCANNERS = 3;
-const scanners = new Map();
+const scanners = new Map(); // key -> {scanner, pixels}, least recently used first
 
 let state = 'loading'; // 'loading' | 'ready' | 'failed'
 let startupError = '';
+/** The instance's WebAssembly.Memory (set once wasm has loaded). */
+let memory = null;
 const queue = [];
 
-function scannerFor(specJson, calibJson, filter, crosstalk, id) {
+function scannerFor(specJson, calibJson, filter, crosstalk, pixels, id) {
   const key = [specJson, calibJson, crosstalk ? crosstalk.join(',') : 'none'].join('\u0000');
-  let scanner = scanners.get(key);
-  if (scanner) {
+  let entry = scanners.get(key);
+  if (entry) {
     scanners.delete(key); // re-insert as most recently used
   } else {
-    progress(id, 'building the scanner (FFT plans and buffers)');
-    scanner = new wasm.Scanner(specJson, calibJson, filter, crosstalk ? Float32Array.from(crosstalk) : undefined);
-    while (scanners.size >= MAX_SCANNERS) {
+    // Room first, so that the allocator reuses the old scanners' memory for the new one.
+    const held = () => [...scanners.values()].reduce((n, e) => n + e.pixels, 0);
+    while (scanners.size && (scanners.size >= MAX_SCANNERS || held() + pixels > MAX_FRAME_PIXELS)) {
       const [oldKey, old] = scanners.entries().next().value;
       scanners.delete(oldKey);
-      old.free();
+      old.scanner.free();
     }
+    progress(id, 'building the scanner (FFT plans and buffers)');
+    entry = { scanner: new wasm.Scanner(specJson, calibJson, filter, crosstalk ? Float32Array.from(crosstalk) : undefined), pixels };
   }
-  scanners.set(key, scanner);
-  return scanner;
+  scanners.set(key, entry);
+  return entry.scanner;
 }
 
 function image(img) {
@@ -93,10 +106,14 @@ const handlers = {
     return image(wasm.renderScene(name, specJson, calibJson, seed >>> 0));
   },
   decodeImage({ bytes }) {
-    return image(wasm.decodeImage(bytesOf(bytes)));
+    const data = bytesOf(bytes);
+    const size = imageSize(data);
+    if (size) refuseLargeFrame(size.width, size.height);
+    return image(wasm.decodeImage(data));
   },
   scan({ specJson, calibJson, filter, crosstalk, width, height, rgba, stages }, id) {
-    const scanner = scannerFor(specJson, calibJson, filter, crosstalk, id);
+    refuseLargeFrame(width, height);
+    const scanner = scannerFor(specJson, calibJson, filter, crosstalk, width * height, id);
     scanner.setFilter(filter);
     progress(id, `decoding a ${width}x${height} frame (${filter})`);
     const t0 = performance.now();
@@ -137,7 +154,51 @@ const handlers = {
     wasm.panicForTest();
     return { value: null };
   },
+  // Runs out of memory the way a huge frame does: the instance's memory is grown to the
+  // most the engine allows (as earlier huge frames leave it), then bytes that fit in no
+  // free block are handed to the decoder, whose allocator then fails for real.
+  outOfMemoryForTest() {
+    const held = memory.buffer.byteLength;
+    for (let pages = 32768; pages >= 1; pages >>= 1) {
+      try {
+        for (;;) memory.grow(pages);
+      } catch {
+        // at most `pages` short of the maximum: try a smaller step
+      }
+    }
+    wasm.decodeImage(new Uint8Array(held + 2 ** 20));
+    return { value: null };
+  },
 };
+
+function refuseLargeFrame(width, height) {
+  const problem = frameSizeProblem(width, height);
+  if (problem) throw new Error(problem);
+}
+
+/**
+ * Whether an error means memory ran out. An allocation that fails inside the decoder
+ * aborts, which surfaces as a trap (a RuntimeError, like a panic) whose stack names the
+ * allocator's failure path (the package keeps its function names); memory that the engine
+ * cannot grow or allocate for JavaScript arrays is a RangeError.
+ */
+function isOutOfMemory(e) {
+  if (e instanceof WebAssembly.RuntimeError) return OOM_FRAMES.test(e.stack ?? '');
+  return e instanceof RangeError && /memory|alloc/i.test(e.message);
+}
+
+/** Rust's allocation-failure handler, and wasm-bindgen's allocator for arguments. */
+const OOM_FRAMES = /handle_alloc_error|__rust_alloc_error_handler|rust_oom|__wbindgen_malloc/;
+
+/** The memory the instance holds, in MB, for crash messages. */
+function memoryInUse() {
+  return memory ? `${Math.round(memory.buffer.byteLength / 2 ** 20).toLocaleString('en')} MB` : 'an unknown amount';
+}
+
+/** The size a request's frame has, where it carries one, for crash messages. */
+function frameOf(msg) {
+  return msg.width && msg.height ? ` on a ${msg.width}x${msg.height} frame` : '';
+}
 
 function stagesOf(scanner) {
   return scanner.stages().map((s) => {
@@ -173,10 +234,19 @@ function handle(msg) {
     const { value, transfer = [] } = handler(msg, id);
     postMessage({ type: 'reply', id, ok: true, value }, transfer);
   } catch (e) {
-    // A Rust panic surfaces as a WebAssembly.RuntimeError ("unreachable"); the instance
-    // may be inconsistent afterwards, so this worker asks to be replaced.
-    const fatal = e instanceof WebAssembly.RuntimeError;
-    const error = fatal ? `The decoder crashed (${e.message})` : messageOf(e);
+    // A Rust panic (or an allocation failing inside Rust) surfaces as a
+    // WebAssembly.RuntimeError ("unreachable"), memory that runs out in the engine as a
+    // RangeError. Either way the instance may be inconsistent afterwards, and its memory
+    // never shrinks again, so this worker closes and asks to be replaced.
+    const oom = isOutOfMemory(e);
+    const fatal = oom || e instanceof WebAssembly.RuntimeError;
+    let error = messageOf(e);
+    if (oom) {
+      const how = e instanceof RangeError ? e.message : 'an allocation failed';
+      error = `The decoder ran out of memory${frameOf(msg)} (${how} with ${memoryInUse()} in use; WebAssembly gives a worker at most 4 GB)`;
+    } else if (fatal) {
+      error = `The decoder crashed${frameOf(msg)} (${e.message}, with ${memoryInUse()} in use)`;
+    }
     postMessage({ type: 'reply', id, ok: false, error, fatal });
     if (fatal) close();
   }
@@ -192,7 +262,8 @@ self.onmessage = (event) => {
 };
 
 init()
-  .then(() => {
+  .then((exports) => {
+    memory = exports.memory;
     state = 'ready';
     postMessage({ type: 'ready' });
   })

@@ -12,7 +12,17 @@
 //   7. the projector window shows the decoder's pattern pixel for pixel;
 //   8. a panic in a worker is reported and the page keeps working;
 //   9. the guided colour calibration asks for the projector and refuses frames without
-//      primaries (the fake camera cannot show them).
+//      primaries (the fake camera cannot show them);
+//  10. the camera ending while scanning continuously: a message, scanning stops, the
+//      controls return to the stopped state, and the camera starts and captures again;
+//  11. the camera changing resolution while scanning: the approximate rig follows and
+//      scanning goes on; with a loaded calibration scanning stops with a message;
+//  12. the projector window closed mid-scan: a message, scanning stops, and the button
+//      opens the window again with the pattern;
+//  13. dropped frames up to 12 megapixels are taken, larger ones (PNG, JPEG, or a bare
+//      PNG header) refused before decoding with a message naming size and limit;
+//  14. a worker that runs out of memory is replaced, with a message, and the next scans
+//      give the same cloud as before.
 // Prints one line per check and `N passed, M failed`; exits non-zero on failure.
 //
 //   node tests/e2e/run.mjs                   run the checks
@@ -139,6 +149,71 @@ async function waitForMessage(page, text) {
   return page.evaluate((t) => [...document.querySelectorAll('#messages .message')].find((m) => m.textContent.includes(t)).textContent, text);
 }
 
+/** A message's text without its dismiss button. */
+function clean(text) {
+  return text.replace('×', '').trim();
+}
+
+/** Remember the frames now in the list, for waitForNewFrame. */
+function markFrames(page) {
+  return page.evaluate(() => {
+    window.e2eSeenFrames = new Set(window.stripelight.state.frames);
+  });
+}
+
+/** Wait for a frame of `kind` added since markFrames, decoded or failed: {name, width, height, error, count}. */
+async function waitForNewFrame(page, kind) {
+  const added = (k) => {
+    const f = window.stripelight.state.frames.find((e) => !window.e2eSeenFrames.has(e) && e.kind === k && (e.result || e.error));
+    return f && { name: f.name, width: f.frame.width, height: f.frame.height, error: f.error, count: f.result ? f.result.merged.families.length : null };
+  };
+  const handle = await page.waitForFunction(added, kind, { timeout: 60_000 });
+  return handle.jsonValue();
+}
+
+/** Wait until continuous scanning shows a new result, of a `width` x `height` camera frame. */
+async function waitForLiveScan(page, width, height) {
+  await page.evaluate(() => {
+    window.e2eLiveResult = window.stripelight.state.frames.find((f) => f.kind === 'live')?.result ?? null;
+  });
+  await page.waitForFunction(([w, h]) => {
+    const live = window.stripelight.state.frames.find((f) => f.kind === 'live');
+    return live?.result && live.result !== window.e2eLiveResult && live.frame.width === w && live.frame.height === h;
+  }, [width, height], { timeout: 30_000 });
+}
+
+/** The camera panel's state: scanning, the checkbox, the enabled camera controls, the status. */
+function cameraPanel(page) {
+  return page.evaluate(() => ({
+    scanning: window.stripelight.state.continuous,
+    ticked: document.getElementById('continuous').checked,
+    enabled: ['capture', 'continuous', 'camera-stop'].filter((id) => !document.getElementById(id).disabled),
+    on: document.body.classList.contains('camera-on'),
+    status: document.getElementById('status').textContent,
+  }));
+}
+
+/** Ask the fake camera's track for another frame size (Chromium scales its frames). */
+function constrainCamera(page, width, height) {
+  return page.evaluate(([w, h]) => {
+    const track = document.getElementById('camera-video').srcObject.getVideoTracks()[0];
+    return track.applyConstraints({ width: { exact: w }, height: { exact: h } });
+  }, [width, height]);
+}
+
+/** The first bytes of a PNG: its signature and an IHDR chunk for an 8-bit RGB image. */
+function pngHeader(width, height) {
+  const b = Buffer.alloc(33);
+  Buffer.from([0x89, 0x50, 0x4e, 0x47, 0x0d, 0x0a, 0x1a, 0x0a]).copy(b, 0);
+  b.writeUInt32BE(13, 8);
+  b.write('IHDR', 12, 'latin1');
+  b.writeUInt32BE(width, 16);
+  b.writeUInt32BE(height, 20);
+  b[24] = 8; // bit depth
+  b[25] = 2; // RGB
+  return [...b]; // compression, filter, interlace 0; the CRC is left 0 (nothing reads it)
+}
+
 /** Scan the stored frame through the worker API directly (no camera, no drop). */
 function scanFixtureDirectly(page) {
   return page.evaluate(async (path) => {
@@ -167,8 +242,9 @@ function scanPixelsDirectly(page, { width, height, rgba }) {
 
 /**
  * Drop files on the page's drop zone, several at once. Each: {name, type} and one of
- * `url` (fetched), `text`, `stateText` (a field of the page's state, e.g. its calibration)
- * or `png: {width, height}` (a grey image made in the page).
+ * `url` (fetched), `text`, `bytes` (an array of byte values), `stateText` (a field of the
+ * page's state, e.g. its calibration) or `png: {width, height}` (a grey image made in the
+ * page, encoded as `type`: image/png or image/jpeg).
  */
 function dropFiles(page, files) {
   return page.evaluate(async (specs) => {
@@ -177,13 +253,14 @@ function dropFiles(page, files) {
       let body;
       if (s.url) body = await (await fetch(s.url)).blob();
       else if (s.text) body = new Blob([s.text]);
+      else if (s.bytes) body = new Blob([new Uint8Array(s.bytes)]);
       else if (s.stateText) body = new Blob([window.stripelight.state[s.stateText]]);
       else {
         const c = new OffscreenCanvas(s.png.width, s.png.height);
         const ctx = c.getContext('2d');
         ctx.fillStyle = '#808080';
         ctx.fillRect(0, 0, s.png.width, s.png.height);
-        body = await c.convertToBlob({ type: 'image/png' });
+        body = await c.convertToBlob({ type: s.type });
       }
       dt.items.add(new File([body], s.name, { type: s.type }));
     }
@@ -481,6 +558,159 @@ async function main() {
     await page.click('#camera-stop');
     await popup.close();
     return 'asked for the projector; refused frames without primaries; pattern restored';
+  });
+
+  await check('10 the camera ending while scanning: a message, scanning stops, the camera starts again', async () => {
+    // Check 9 closed its projector window: let the page notice (it looks twice a second),
+    // or it would stop the scanning below for it.
+    await page.waitForFunction(() => !window.stripelight.state.projectorWindow, null, { timeout: 10_000 });
+    await context.grantPermissions(['camera'], { origin: server.base });
+    await page.click('#camera-start');
+    await page.waitForSelector('#capture:not([disabled])', { timeout: 30_000 });
+    await page.check('#continuous');
+    await waitForLiveScan(page, 640, 480);
+    // Unplugged, or taken by another program: the track ends and fires `ended`. The
+    // page's own track.stop() fires nothing, so the test sends the event as the browser does.
+    await page.evaluate(() => {
+      const track = document.getElementById('camera-video').srcObject.getVideoTracks()[0];
+      track.stop();
+      track.dispatchEvent(new Event('ended'));
+    });
+    const text = clean(await waitForMessage(page, 'The camera stopped delivering pictures'));
+    assert(/continuous scanning stopped/.test(text) && /Start camera/.test(text), `unclear message: ${text}`);
+    const ui = await cameraPanel(page);
+    assert(!ui.scanning && !ui.ticked, 'continuous scanning is still on after the camera ended');
+    assert(!ui.enabled.length && !ui.on, `camera controls still enabled: ${ui.enabled.join(', ')}`);
+    // Nothing more is scanned: results of frames in flight are dropped.
+    await page.evaluate(() => {
+      window.e2eLiveResult = window.stripelight.state.frames.find((f) => f.kind === 'live').result;
+    });
+    await page.waitForTimeout(1000);
+    const quiet = await page.evaluate(() => window.stripelight.state.frames.find((f) => f.kind === 'live').result === window.e2eLiveResult);
+    assert(quiet, 'a frame was scanned after the camera ended');
+    // The camera starts again and captures.
+    await markFrames(page);
+    await page.click('#camera-start');
+    await page.waitForSelector('#capture:not([disabled])', { timeout: 30_000 });
+    await page.click('#capture');
+    const got = await waitForNewFrame(page, 'camera');
+    assert(!got.error && got.count > 1000, `capture after the restart: ${got.error || `${got.count} points`}`);
+    return `"${text}"; status "${ui.status}"; started again, a capture gave ${got.count} points`;
+  });
+
+  await check('11 the camera changing resolution while scanning: the rig follows; a loaded calibration stops scanning', async () => {
+    await page.check('#continuous');
+    await waitForLiveScan(page, 640, 480);
+    await constrainCamera(page, 320, 240);
+    const followed = clean(await waitForMessage(page, 'The camera gives 320x240'));
+    await waitForLiveScan(page, 320, 240);
+    const rig = await page.evaluate(() => {
+      const s = window.stripelight.state;
+      return { source: s.calibSource, width: s.calib.camera.width, height: s.calib.camera.height, scanning: s.continuous };
+    });
+    assert(rig.scanning, 'continuous scanning stopped although the rig could follow');
+    assert(rig.source === 'rig' && rig.width === 320 && rig.height === 240, `the calibration is ${rig.source} ${rig.width}x${rig.height}`);
+    const info = await page.textContent('#camera-info');
+    assert(info.startsWith('320x240'), `the camera panel says ${info}`);
+    // A calibration from a file is made for one size: the same rig, loaded as a file.
+    await dropFiles(page, [{ name: 'camera-320x240.json', type: 'application/json', stateText: 'calibJson' }]);
+    await waitForMessage(page, 'Calibration camera-320x240.json loaded');
+    await waitForLiveScan(page, 320, 240);
+    await constrainCamera(page, 640, 480);
+    const stopped = clean(await waitForMessage(page, 'Continuous scanning stopped'));
+    assert(/640x480/.test(stopped) && /320x240/.test(stopped) && /camera-320x240\.json/.test(stopped), `unclear message: ${stopped}`);
+    const ui = await cameraPanel(page);
+    assert(!ui.scanning && !ui.ticked && ui.enabled.includes('continuous'), 'scanning did not stop cleanly, or the camera stopped too');
+    await page.click('#calib-demo');
+    await page.waitForFunction(() => window.stripelight.state.calibSource === 'demo', null, { timeout: 30_000 });
+    return `"${followed}" / "${stopped}"`;
+  });
+
+  await check('12 the projector window closed mid-scan: a message, and the button opens it again', async () => {
+    const [popup] = await Promise.all([page.waitForEvent('popup'), page.click('#open-projector')]);
+    await popup.waitForLoadState('load');
+    await page.check('#continuous');
+    await waitForLiveScan(page, 640, 480);
+    await popup.close();
+    const text = clean(await waitForMessage(page, 'The projector window was closed while scanning'));
+    const ui = await cameraPanel(page);
+    assert(!ui.scanning && !ui.ticked, 'continuous scanning went on without the pattern');
+    const [again] = await Promise.all([page.waitForEvent('popup'), page.click('#open-projector')]);
+    await again.waitForLoadState('load');
+    await again.waitForFunction(() => document.getElementById('hint-pattern').textContent.includes('direction pattern'), null, {
+      timeout: 10_000,
+    });
+    const shown = await again.evaluate(() => [document.getElementById('pattern').width, document.getElementById('pattern').height]);
+    const sent = await page.evaluate(() => [window.stripelight.state.patternPixels.width, window.stripelight.state.patternPixels.height]);
+    assert(shown.join('x') === sent.join('x'), `the reopened window shows ${shown.join('x')}, the pattern is ${sent.join('x')}`);
+    await again.close();
+    await page.click('#camera-stop');
+    // Back to the demo rig (it followed the projector screen) for the next checks.
+    await page.click('#calib-demo');
+    await page.waitForFunction(() => {
+      const s = window.stripelight.state;
+      return s.calibSource === 'demo' && s.spec.width === s.calib.projector.width;
+    }, null, { timeout: 30_000 });
+    return `"${text}"; reopened with the ${shown.join('x')} pattern`;
+  });
+
+  await check('13 dropped frames up to 12 megapixels are taken, larger ones refused before decoding', async () => {
+    await markFrames(page);
+    await dropFiles(page, [{ name: 'at-limit.png', type: 'image/png', png: { width: 4096, height: 3072 } }]);
+    const taken = await waitForNewFrame(page, 'file');
+    assert(taken.name === 'at-limit.png' && taken.width === 4096 && taken.height === 3072,
+      `the 12-megapixel frame was not taken: ${taken.name} ${taken.width}x${taken.height}`);
+    // Decoded and listed; scanning it needs a calibration of its size, which the message asks for.
+    assert(/4096x3072/.test(taken.error) && /640x480/.test(taken.error) && !/megapixels/.test(taken.error),
+      `unexpected message for the 12-megapixel frame: ${taken.error}`);
+    // Just over the limit, a phone photo, and a PNG that is only its header (a decoder
+    // would call it unreadable: the header alone decides).
+    await dropFiles(page, [
+      { name: 'over-limit.png', type: 'image/png', png: { width: 4097, height: 3072 } },
+      { name: 'phone.jpg', type: 'image/jpeg', png: { width: 4608, height: 3456 } },
+      { name: 'header-only.png', type: 'image/png', bytes: pngHeader(4097, 3072) },
+    ]);
+    const refusals = [];
+    for (const [name, size] of [['over-limit.png', '4097x3072'], ['phone.jpg', '4608x3456'], ['header-only.png', '4097x3072']]) {
+      const text = clean(await waitForMessage(page, `${name}:`));
+      assert(text.includes(size) && text.includes('12 megapixels') && text.includes('12,582,912'), `unclear refusal: ${text}`);
+      refusals.push(text);
+    }
+    const listed = await page.evaluate(() => window.stripelight.state.frames.filter((f) => /over-limit|phone|header-only/.test(f.name)).length);
+    assert(listed === 0, `${listed} refused frame(s) were listed`);
+    return `taken: "${taken.error.slice(0, 70)}…"; refused: "${refusals[0]}"`;
+  });
+
+  await check('14 a worker out of memory is replaced, with a message, and the next scans work', async () => {
+    // The stored frame scanned twice at once, one scan per worker (the bridge sends each
+    // request to the least busy one); resolves to the two point counts.
+    const scanTwice = () => page.evaluate(async (path) => {
+      const { bridge, state } = window.stripelight;
+      const bytes = await (await fetch(`/${path}`)).arrayBuffer();
+      const frame = await bridge.request('decodeImage', { bytes });
+      const scan = () => bridge.request('scan', {
+        specJson: state.specJson, calibJson: state.calibJson, filter: 'loggrad',
+        width: frame.width, height: frame.height, rgba: frame.rgba.slice(), stages: false,
+      });
+      return (await Promise.all([scan(), scan()])).map((r) => r.merged.families.length);
+    }, FIXTURE);
+    const before = await scanTwice();
+    await page.evaluate(() => {
+      window.e2eWorkers = window.stripelight.bridge.slots.map((s) => s.worker);
+    });
+    const error = await page.evaluate(() =>
+      window.stripelight.bridge.request('outOfMemoryForTest').then(() => 'no error', (e) => e.message),
+    );
+    assert(/ran out of memory/.test(error), `the failure came back as: ${error}`);
+    const text = clean(await waitForMessage(page, 'ran out of memory'));
+    assert(/restarted/.test(text), `the message does not say the decoder was restarted: ${text}`);
+    const replaced = await page.evaluate(() => window.stripelight.bridge.slots.map((s, i) => s.worker !== window.e2eWorkers[i]));
+    assert(replaced.filter(Boolean).length === 1, `workers replaced: ${replaced.join(', ')}`);
+    // The new worker and the old one give the same clouds as before.
+    const after = await scanTwice();
+    assert(before[0] > 1000 && [...before, ...after].every((n) => n === before[0]),
+      `the stored frame gave ${before.join(' and ')} points before, ${after.join(' and ')} after the restart`);
+    return `"${text}"; ${after.join(' and ')} points after, as before`;
   });
 
   // The GPU notes are SwiftShader's; the panic is check 6's own.
