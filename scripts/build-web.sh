@@ -7,5 +7,5 @@ cargo build --release --locked --lib --target wasm32-unknown-unknown
 # module the browser refuses ("WebAssembly.Table.set(): Argument 1 is invalid"). The
 # release build with LTO is what the page loads.
 wasm-bindgen --target web --out-dir pkg --no-typescript \
-  target/wasm32-unknown-unknown/release/stripelight.wasm
+  "${CARGO_TARGET_DIR:-target}/wasm32-unknown-unknown/release/stripelight.wasm"
 ls -l pkg/stripelight_bg.wasm >&2
