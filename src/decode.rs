@@ -2,26 +2,31 @@
 //! the projector stripe coordinate of every pixel between identified boundaries.
 //!
 //! Along a scan line the boundaries of one run (no unusable pixel between them) are
-//! matched to the pattern by their transition codes: every `window - 1` consecutive
-//! codes occur once in the pattern, so each run of that many readable boundaries names
-//! its first boundary. Each such window votes for the identities of all its
-//! boundaries; a boundary is identified where at least two overlapping windows agree
-//! and none disagrees, so a single misread code or a spurious edge leaves its
-//! neighbours empty instead of wrong. This is the joint, order-preserving decoding
-//! along a line: identities must increase by one from boundary to boundary, which is
-//! what a dynamic-programming alignment (Zhang, Curless, Seitz 2002) enforces too,
-//! restricted here to exact agreement because a wrong identity is worse than none.
+//! matched to the pattern by the transitions they are compatible with
+//! ([`crate::segment::CodeMask`]). Every `window - 1` consecutive codes occur once in
+//! the pattern, so where each boundary's transition is known exactly, a window of that
+//! many boundaries names its first boundary. Where the evidence is looser (a channel
+//! too dark to read on a saturated dye, or clipped), several places in the pattern may
+//! fit a window: it then grows, one boundary at a time up to [`MAX_EXTRA_SPAN`] more,
+//! until exactly one place fits. Each window that fits once votes for the identities of
+//! all its boundaries; a boundary is identified where at least two overlapping windows
+//! agree and none disagrees, so a single misread transition or a spurious edge leaves
+//! its neighbours empty instead of wrong. Identities must increase by one from boundary
+//! to boundary (the order a dynamic-programming alignment, Zhang, Curless, Seitz 2002,
+//! enforces too), restricted here to consecutive boundaries because a wrong identity is
+//! worse than none.
 //!
 //! Then across lines: a stripe boundary continues from line to line, so identities are
 //! checked against the boundaries at the same place on the neighbouring lines (a
-//! disagreeing majority removes one) and propagated along connected boundaries to
+//! disagreeing majority removes one, and so does no agreeing neighbour at all: texture
+//! in light the projector does not reach can fit a window by chance on one line, but
+//! not the same window on the next) and propagated along connected boundaries to
 //! those that could not be identified on their own line (short runs near occluding
 //! edges, where only a partial window is visible), provided their own code matches
-//! the pattern's code for that boundary.
+//! the pattern's code for that boundary (is compatible with it).
 
 use crate::pattern::PatternSpec;
-use crate::segment::{pack, reverse, Code, Edge, ScanAxis, Segmentation, NO_CODE};
-use std::collections::HashMap;
+use crate::segment::{pack, reverse, Code, CodeMask, Edge, ScanAxis, Segmentation, NO_CODE};
 
 /// Largest distance between a boundary and its continuation on the next scan line,
 /// pixels. Scan lines are at most 45 degrees from across the stripes, so a boundary
@@ -34,22 +39,30 @@ pub const VOTE_LINES: usize = 2;
 /// Propagation sweeps (down, up, down, ...) along connected boundaries.
 pub const PROPAGATION_SWEEPS: usize = 4;
 
+/// How many boundaries a window may grow beyond the pattern's own window when loose
+/// evidence lets several places fit: each boundary with one unreadable channel of
+/// three still cuts the candidates about threefold.
+pub const MAX_EXTRA_SPAN: usize = 4;
+
+/// Most compatible transitions an edge may have to take an identity by propagation:
+/// propagation checks one identity only, so a loose edge would take it by chance.
+pub const MAX_PROPAGATION_CODES: u32 = 1;
+
+/// Agreeing boundaries on the neighbouring lines an identity needs to be kept.
+pub const MIN_LINE_SUPPORT: usize = 1;
+
 /// The identification tables of one stripe family.
 pub struct Decoder {
     /// Transitions per window (`spec.window - 1`).
     span: usize,
     /// Pattern code of boundary j (between stripes j-1 and j), j in 1..count.
     codes: Vec<Code>,
-    /// Codes of `span` consecutive boundaries → the first boundary's index.
-    lookup: HashMap<u64, i32>,
+    /// Per code as seen along the scan direction, the boundaries that show it.
+    by_seen_code: Vec<Vec<i32>>,
     /// Boundary identities grow along the scan direction.
     increasing: bool,
-    key_codes: Vec<Code>,
+    candidates: Vec<i32>,
     votes: Vec<(i32, u8, bool)>,
-}
-
-fn key_of(codes: &[Code]) -> u64 {
-    codes.iter().fold(0u64, |k, &c| k * 27 + c as u64)
 }
 
 impl Decoder {
@@ -62,13 +75,27 @@ impl Decoder {
             *c = pack(spec.boundary_transition(family, j));
         }
         let span = spec.window.saturating_sub(1).max(1);
-        let mut lookup = HashMap::new();
-        if count > span {
-            for j in 1..=count - span {
-                lookup.insert(key_of(&codes[j..j + span]), j as i32);
+        let mut by_seen_code = vec![Vec::new(); 27];
+        for (j, &c) in codes.iter().enumerate().skip(1) {
+            let seen = if increasing { c } else { reverse(c) };
+            if let Some(list) = by_seen_code.get_mut(seen as usize) {
+                list.push(j as i32);
             }
         }
-        Decoder { span, codes, lookup, increasing, key_codes: Vec::new(), votes: Vec::new() }
+        Decoder { span, codes, by_seen_code, increasing, candidates: Vec::new(), votes: Vec::new() }
+    }
+
+    /// Whether boundary `j` can be what an edge with the compatible codes `mask` shows.
+    #[inline]
+    fn fits(&self, mask: CodeMask, j: i32) -> bool {
+        let c = self.seen_code(j);
+        c != NO_CODE && mask & (1 << c) != 0
+    }
+
+    /// [`Decoder::fits`] for propagation: only edges with specific evidence.
+    #[inline]
+    fn confirms(&self, mask: CodeMask, j: i32) -> bool {
+        mask.count_ones() <= MAX_PROPAGATION_CODES && self.fits(mask, j)
     }
 
     /// The pattern's code for boundary `j` as seen along the scan direction.
@@ -100,37 +127,67 @@ impl Decoder {
         }
     }
 
+    /// The one identity of `edges[start]` that a window starting there fits, growing
+    /// the window while several fit; with the window's length.
+    fn match_window(&mut self, edges: &[Edge], start: usize) -> Option<(i32, usize)> {
+        let step: i32 = if self.increasing { 1 } else { -1 };
+        let first = edges[start];
+        self.candidates.clear();
+        for c in 0..27 {
+            if first.mask & (1 << c) != 0 {
+                self.candidates.extend_from_slice(&self.by_seen_code[c]);
+            }
+        }
+        // Evidence in bits: an edge whose transition is known exactly names one of the
+        // 26 transitions (log2 26 bits); one compatible with m of them, log2(26 / m).
+        // A window is accepted only with at least the evidence of the pattern's own
+        // window of exact transitions, so that loose evidence is never taken on less
+        // than clean evidence would be.
+        let bits = |mask: CodeMask| (26.0 / mask.count_ones().max(1) as f32).log2();
+        let needed = self.span as f32 * 26f32.log2() - 1e-3;
+        let mut evidence = bits(first.mask);
+        let mut len = 1;
+        while len < self.span + MAX_EXTRA_SPAN {
+            let Some(e) = edges.get(start + len).filter(|e| e.run == first.run) else {
+                return None;
+            };
+            let k = len as i32;
+            let mut kept = 0;
+            for i in 0..self.candidates.len() {
+                let j0 = self.candidates[i];
+                if self.fits(e.mask, j0 + step * k) {
+                    self.candidates[kept] = j0;
+                    kept += 1;
+                }
+            }
+            self.candidates.truncate(kept);
+            evidence += bits(e.mask);
+            len += 1;
+            match self.candidates.len() {
+                0 => return None,
+                1 if len >= self.span && evidence >= needed => return Some((self.candidates[0], len)),
+                _ => {}
+            }
+        }
+        None
+    }
+
     /// Window votes along one line.
     fn identify_line(&mut self, edges: &mut [Edge]) {
         let n = edges.len();
-        let span = self.span;
         self.votes.clear();
         self.votes.resize(n, (-1, 0, false));
         for e in edges.iter_mut() {
             e.id = -1;
         }
-        if n < span {
-            return;
-        }
-        for start in 0..=n - span {
-            let win = &edges[start..start + span];
-            if win.iter().any(|e| e.code == NO_CODE || e.run != win[0].run) {
-                continue;
-            }
-            // In pattern order: along the scan for increasing families, reversed and
-            // with reversed transitions otherwise.
-            self.key_codes.clear();
-            if self.increasing {
-                self.key_codes.extend(win.iter().map(|e| e.code));
-            } else {
-                self.key_codes.extend(win.iter().rev().map(|e| reverse(e.code)));
-            }
-            let Some(&first) = self.lookup.get(&key_of(&self.key_codes)) else {
+        let step: i32 = if self.increasing { 1 } else { -1 };
+        for start in 0..n {
+            let Some((first, len)) = self.match_window(edges, start) else {
                 continue;
             };
-            for k in 0..span {
+            for k in 0..len {
                 // The identity of edges[start + k].
-                let id = if self.increasing { first + k as i32 } else { first + (span - 1 - k) as i32 };
+                let id = first + step * k as i32;
                 let v = &mut self.votes[start + k];
                 if v.1 == 0 {
                     *v = (id, 1, false);
@@ -169,7 +226,7 @@ impl Decoder {
                         }
                     }
                 }
-                if disagree > agree {
+                if disagree > agree || agree < MIN_LINE_SUPPORT {
                     seg.lines[line][i].id = -1;
                 }
             }
@@ -192,9 +249,9 @@ impl Decoder {
                     let (lo, hi) = seg.lines.split_at_mut(from);
                     (&hi[0], &mut lo[line])
                 };
-                for e in b.iter_mut().filter(|e| e.id < 0 && e.code != NO_CODE) {
+                for e in b.iter_mut().filter(|e| e.id < 0) {
                     if let Some(o) = nearest(a, e.pos, CONTINUATION_TOLERANCE) {
-                        if o.id >= 0 && self.seen_code(o.id) == e.code {
+                        if o.id >= 0 && self.confirms(e.mask, o.id) {
                             e.id = o.id;
                         }
                     }
@@ -207,7 +264,7 @@ impl Decoder {
                 if p.run != e.run {
                     continue;
                 }
-                if e.id < 0 && p.id >= 0 && e.code != NO_CODE && self.seen_code(p.id + step) == e.code {
+                if e.id < 0 && p.id >= 0 && self.confirms(e.mask, p.id + step) {
                     edges[i].id = p.id + step;
                 }
             }
@@ -216,7 +273,7 @@ impl Decoder {
                 if nx.run != e.run {
                     continue;
                 }
-                if e.id < 0 && nx.id >= 0 && e.code != NO_CODE && self.seen_code(nx.id - step) == e.code {
+                if e.id < 0 && nx.id >= 0 && self.confirms(e.mask, nx.id - step) {
                     edges[i].id = nx.id - step;
                 }
             }

@@ -11,11 +11,11 @@ use crate::calib::{crosstalk_inverse, Calibration, Crosstalk, IDENTITY_CROSSTALK
 use crate::cloud::Cloud;
 use crate::decode::Decoder;
 use crate::error::{Error, Result};
-use crate::filter::{FamilyWindow, FilterMode, LogGradFilter, Restored};
+use crate::filter::{smooth_along_stripes, FamilyWindow, FilterMode, LogGradFilter, Restored};
 use crate::merge;
 use crate::pattern::PatternSpec;
 use crate::raster::{gamma_lut, rgb8_to_linear_lut, rgba8_into, Image, Rgb};
-use crate::segment::{usable_mask_into, ScanAxis, Segmentation};
+use crate::segment::{pixel_flags_into, PixelFlags, ScanAxis, Segmentation};
 use crate::stages::{Stage, StageInputs};
 use crate::triangulate::Triangulator;
 use glam::DVec3;
@@ -114,6 +114,10 @@ pub struct ScanResult {
     pub depth: Image<f32>,
     /// Each family's depth map, the same way.
     pub family_depth: Vec<Image<f32>>,
+    /// Per camera pixel, channel k = family k's projector coordinate along its normal
+    /// (the spec's `s`, projector pixels; see `pattern::Family`) where family k has a
+    /// depth; NaN where it has none or the pattern has no family k.
+    pub correspondence: Image<[f32; 3]>,
     /// Figures about the scan.
     pub stats: ScanStats,
 }
@@ -146,10 +150,13 @@ pub struct Scanner {
     /// [`Scanner::stages`] (they are needed anyway: keeping them costs nothing).
     frame: Image<[u8; 3]>,
     linear: Image<Rgb>,
-    usable: Vec<bool>,
+    flags: Vec<PixelFlags>,
     filter: LogGradFilter,
     windows: Vec<FamilyWindow>,
     predictions: Vec<FamilyPrediction>,
+    /// Per family, the mean period of the other families' stripes along its own
+    /// stripes, pixels (see `smooth_along_stripes`).
+    other_families_period: Vec<f32>,
     restored: Vec<Restored>,
     segmentations: Vec<Segmentation>,
     decoders: Vec<Decoder>,
@@ -220,6 +227,15 @@ pub fn predict_families(spec: &PatternSpec, calib: &Calibration) -> Result<Vec<F
     Ok(out)
 }
 
+/// From this many families on, each family's log image is averaged along its stripes
+/// (`filter::smooth_along_stripes`) before segmentation. Measured on the simulator's
+/// scenes (`stripelight eval`): with three families it lifts coverage and cuts outliers
+/// in both modes (crumpled paper, `loggrad`: 76.8 -> 90.2 % coverage, 2.91 -> 0.98 %
+/// outliers; `direct`: 0.1 -> 16 %); with two perpendicular families, which barely leak
+/// into each other, the gain on coloured scenes (paper 91.6 -> 93.8 %) costs coverage near
+/// depth edges, where the box reaches across the occlusion (occluders 94.5 -> 92.5 %).
+pub const SMOOTH_MIN_FAMILIES: usize = 3;
+
 /// A stripe wider than this many predicted periods is not bridged (surfaces slanted
 /// away from the projector stretch stripes; much wider means a missed boundary).
 const MAX_STRIPE_PERIODS: f32 = 3.0;
@@ -241,6 +257,19 @@ impl Scanner {
         let unmix = crosstalk_inverse(&config.crosstalk)?;
         let predictions = predict_families(&spec, &calib)?;
         let windows = FamilyWindow::for_families(&predictions.iter().map(|p| p.angle).collect::<Vec<_>>());
+        let other_families_period = predictions
+            .iter()
+            .enumerate()
+            .map(|(k, pk)| {
+                let others: Vec<f32> = predictions
+                    .iter()
+                    .enumerate()
+                    .filter(|&(m, _)| m != k)
+                    .map(|(_, pm)| pm.period / (pm.angle - pk.angle).sin().abs().max(0.5))
+                    .collect();
+                if others.is_empty() { 0.0 } else { others.iter().sum::<f32>() / others.len() as f32 }
+            })
+            .collect();
         let n = spec.families.len();
         let lut = gamma_lut(config.camera_gamma);
         let decoders = predictions.iter().enumerate().map(|(k, p)| Decoder::new(&spec, k, p.increasing)).collect();
@@ -256,11 +285,12 @@ impl Scanner {
             scratch: Vec::with_capacity(w * h),
             frame: Image::new(w, h, [0; 3]),
             linear: Image::new(w, h, [0.0; 3]),
-            usable: vec![false; w * h],
+            flags: vec![0; w * h],
             result: ScanResult {
                 depth: Image::new(w, h, f32::NAN),
                 family_depth: (0..n).map(|_| Image::new(w, h, f32::NAN)).collect(),
                 family_clouds: vec![Cloud::default(); n],
+                correspondence: Image::new(w, h, [f32::NAN; 3]),
                 ..Default::default()
             },
             spec,
@@ -272,6 +302,7 @@ impl Scanner {
             unmix,
             windows,
             predictions,
+            other_families_period,
             decoders,
             triangulator,
             scanned: false,
@@ -335,15 +366,23 @@ impl Scanner {
                 *p = (m * glam::Vec3::from_array(*p)).max(glam::Vec3::ZERO).to_array();
             }
         }
-        let usable = usable_mask_into(self.frame.pixels(), self.linear.pixels(), &mut self.usable);
+        let usable = pixel_flags_into(self.frame.pixels(), self.linear.pixels(), &mut self.flags);
         clock.lap("linearize", &mut laps);
         self.filter.run(&self.linear, &self.windows, self.config.filter, &mut self.restored)?;
+        // Three families: each family's restored (or raw, for `direct`) log image still
+        // holds much of the others' stripes, 60 degrees away; averaging along the
+        // family's own stripes removes them and keeps its boundaries.
+        if self.predictions.len() >= SMOOTH_MIN_FAMILIES {
+            for (k, restored) in self.restored.iter_mut().enumerate() {
+                smooth_along_stripes(restored, self.other_families_period[k], &mut self.scratch);
+            }
+        }
         clock.lap("filter", &mut laps);
         let families = self.spec.families.len();
         let r = &mut self.result;
         for k in 0..families {
             let pred = self.predictions[k];
-            self.segmentations[k].run(&self.restored[k], &self.usable, pred.axis, pred.period);
+            self.segmentations[k].run(&self.restored[k], self.linear.pixels(), &self.flags, pred.axis, pred.period);
             clock.lap("segment", &mut laps);
             self.decoders[k].run(&mut self.segmentations[k]);
             self.decoders[k].stripe_coords_into(&self.segmentations[k], w, MAX_STRIPE_PERIODS * pred.period, &mut self.coords[k]);
@@ -369,6 +408,14 @@ impl Scanner {
             }
         };
         fill(&mut r.cloud, &r.depth, &|i| self.merged_families[i]);
+        // Stripe coordinate q (boundary j at q = j) to the spec's s = origin + q·width.
+        for (k, fam) in self.spec.families.iter().enumerate().take(3) {
+            let (origin, width) = (fam.origin as f32, fam.stripe_width as f32);
+            let depth = r.family_depth[k].pixels();
+            for ((c, &q), &z) in r.correspondence.pixels_mut().iter_mut().zip(&self.coords[k]).zip(depth) {
+                c[k] = if z.is_nan() { f32::NAN } else { origin + q * width };
+            }
+        }
         r.stats.decoded.clear();
         for k in 0..families {
             fill(&mut r.family_clouds[k], &r.family_depth[k], &|_| 1 << k);

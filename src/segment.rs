@@ -1,34 +1,52 @@
 //! Segmentation of one family's restored image into stripes: stripe boundaries along
 //! scan lines across the stripes, located to sub-pixel accuracy, each with the colour
-//! transition it shows.
+//! transitions it is compatible with.
 //!
 //! The paper segments by hue thresholding of restored colours normalized by the
 //! neighbouring colours. Here the normalization is done on the boundary: the plateau
 //! colours of the two stripes either side are compared per channel in the log domain
 //! (a ratio, so the surface's own colour cancels where it is the same on both sides),
-//! and each channel's change is classified as up, down or unchanged *relative to the
-//! largest change at that boundary* (all changing channels of the palette change by
-//! the same ratio). A boundary whose largest change is too small, or with a channel
-//! whose change is neither clearly large nor clearly small, gets no code: it is left
-//! for the decoder to skip rather than guessed.
+//! and each channel's change is compared with the largest reliable change at that
+//! boundary (all changing channels of the palette change by the same ratio).
+//!
+//! **Soft evidence.** Real surfaces and cameras do not give three clean channels: a
+//! saturated dye reflects 1 % of the other primaries, so those channels sit in the
+//! sensor's noise; bright stripes clip. So each channel of a boundary says which of
+//! *down*, *unchanged* and *up* it is compatible with, given its measured step, the
+//! noise at its light level ([`NOISE_LINEAR`]) and clipping:
+//! - a clean channel allows the value(s) its step is close to (both when it is halfway);
+//! - a channel clipped on one side gives a bound: clipped on the brighter side it can
+//!   still say "not down" (the true step is at least what is seen);
+//! - a channel too dark on a side to read, or clipped on both, is a wildcard.
+//!
+//! The boundary's evidence is the set of transition codes compatible with every
+//! channel: a bit mask over the 27 codes ([`CodeMask`]). The decoder matches masks
+//! against the pattern; where the evidence is loose it needs more neighbours to be
+//! sure (see [`crate::decode`]).
 //!
 //! Scan lines run along image rows when the family's stripes are closer to vertical
 //! and along columns otherwise, so a stripe crosses every scan line at no more than 45
-//! degrees from square. Pixels that are too dark (shadow, no projector light) or
-//! saturated in any channel break a scan line.
+//! degrees from square. Only unlit pixels (every channel dark: shadow, or no projector
+//! light) and pixels clipped in every channel break a scan line.
 
 use crate::filter::Restored;
-use crate::raster::SATURATED;
+use crate::raster::{Rgb, SATURATED};
 
 /// A code in {-1, 0, +1}³ packed as a base-3 number, `(r+1)·9 + (g+1)·3 + (b+1)`.
-/// [`NO_CODE`] marks a boundary whose transition could not be read.
+/// [`NO_CODE`] marks a boundary whose transition is not known exactly.
 pub type Code = u8;
 
-/// The code of a boundary that could not be classified.
+/// The code of a boundary whose transition is not known exactly.
 pub const NO_CODE: Code = 255;
 
-/// Marks, during classification, a candidate that is no boundary at all.
-const NOT_A_BOUNDARY: Code = 254;
+/// A set of codes: bit `c` set when code `c` is compatible with what was measured.
+pub type CodeMask = u32;
+
+/// The code of "no change in any channel", which is never a stripe boundary.
+pub const SAME_CODE: Code = 13;
+
+/// Every code that is a boundary (all but [`SAME_CODE`]).
+pub const ANY_BOUNDARY: CodeMask = ((1 << 27) - 1) & !(1 << SAME_CODE);
 
 /// Smallest edge strength (sum over channels of the squared central difference of the
 /// log signal) for a boundary candidate. A palette step of ln(1/0.45) = 0.8 (the
@@ -39,17 +57,58 @@ pub const MIN_EDGE_STRENGTH: f32 = 0.02;
 /// Smallest largest-channel log change across a boundary (ratio 1.3).
 pub const MIN_STEP: f32 = 0.26;
 
-/// A channel changing by less than this fraction of the largest change counts as
-/// unchanged; by more than [`CHANGED_FRACTION`], as changed; in between, the boundary
-/// is ambiguous and gets [`NO_CODE`].
-pub const UNCHANGED_FRACTION: f32 = 0.33;
-/// See [`UNCHANGED_FRACTION`].
-pub const CHANGED_FRACTION: f32 = 0.6;
+/// How far (as a fraction of the largest change) a channel's change may be from a
+/// value (0 or ±largest) and still be read as that value, before noise is added. At
+/// 0.42, a clean channel reads "unchanged" below 42 % of the largest change and
+/// "changed" above 58 %; in between it allows both.
+pub const VALUE_TOLERANCE: f32 = 0.42;
 
-/// Linear brightness (largest channel) below which a pixel counts as unlit: about
-/// 8-bit code 20 through gamma 2.2.
+/// Standard deviation of a camera's linear signal noise, full scale = 1: about 1.3
+/// 8-bit codes at mid grey, a webcam at moderate gain (and the simulator's default).
+/// Divided by the light level it gives the noise of the log signal.
+pub const NOISE_LINEAR: f32 = 0.005;
+
+/// Noise multiples a step must exceed to be evidence.
+pub const NOISE_SIGMAS: f32 = 2.5;
+
+/// Linear level below which a channel counts as dark (too close to the sensor's noise
+/// floor to read a ratio): about 8-bit code 20 through gamma 2.2. A pixel with every
+/// channel dark is unlit.
 pub const DARK_LEVEL: f32 = 0.0035;
 
+/// Per-pixel flags: bit `c` (0..3) channel c is clipped, bit `3 + c` channel c is dark,
+/// [`UNUSABLE`] the pixel cannot take part in decoding.
+pub type PixelFlags = u8;
+
+/// Flag of a pixel that is unlit (every channel dark) or clipped in every channel.
+pub const UNUSABLE: PixelFlags = 0x80;
+
+/// Flags of every pixel, from the 8-bit frame (clipping) and its linear values
+/// (darkness). Written once per frame and shared by all families; returns the number
+/// of usable pixels.
+pub fn pixel_flags_into(frame: &[[u8; 3]], linear: &[Rgb], flags: &mut [PixelFlags]) -> usize {
+    let mut count = 0;
+    for ((f, p8), p) in flags.iter_mut().zip(frame).zip(linear) {
+        let mut bits = 0u8;
+        for c in 0..3 {
+            if p8[c] >= SATURATED {
+                bits |= 1 << c;
+            }
+            if p[c] < DARK_LEVEL {
+                bits |= 1 << (3 + c);
+            }
+        }
+        let all_dark = bits & 0x38 == 0x38;
+        let all_clipped = bits & 0x07 == 0x07;
+        if all_dark || all_clipped {
+            bits |= UNUSABLE;
+        } else {
+            count += 1;
+        }
+        *f = bits;
+    }
+    count
+}
 
 /// Pack a transition.
 pub fn pack(t: [i8; 3]) -> Code {
@@ -70,8 +129,11 @@ pub fn reverse(code: Code) -> Code {
 pub struct Edge {
     /// Sub-pixel position along the scan line (pixel centres at integers).
     pub pos: f32,
-    /// The transition seen crossing it in the direction of increasing position.
+    /// The transition seen crossing it in the direction of increasing position, when
+    /// the evidence names exactly one; [`NO_CODE`] otherwise.
     pub code: Code,
+    /// Every transition compatible with the evidence (the decoder matches this).
+    pub mask: CodeMask,
     /// Index of the run of usable pixels the edge lies in; consecutive edges of the
     /// same run have only usable pixels between them.
     pub run: u32,
@@ -117,25 +179,13 @@ impl ScanAxis {
     }
 }
 
-/// Per-pixel usability: lit enough and not saturated. Written once per frame and
-/// shared by all families.
-pub fn usable_mask_into(frame: &[[u8; 3]], linear: &[[f32; 3]], mask: &mut [bool]) -> usize {
-    let mut count = 0;
-    for ((m, p8), p) in mask.iter_mut().zip(frame).zip(linear) {
-        let bright = p[0].max(p[1]).max(p[2]) >= DARK_LEVEL;
-        let saturated = p8.iter().any(|&c| c >= SATURATED);
-        *m = bright && !saturated;
-        count += *m as usize;
-    }
-    count
-}
-
 /// Reusable buffers of one scan line.
 #[derive(Default)]
 pub struct LineScratch {
     signal: [Vec<f32>; 3],
+    level: [Vec<f32>; 3],
+    flags: Vec<PixelFlags>,
     strength: Vec<f32>,
-    ok: Vec<bool>,
 }
 
 /// The boundaries of every scan line of one family.
@@ -149,37 +199,47 @@ pub struct Segmentation {
 }
 
 impl Segmentation {
-    /// Find the boundaries of `restored` along `axis`, skipping pixels not in `usable`;
-    /// `period` is the expected stripe period in pixels.
-    pub fn run(&mut self, restored: &Restored, usable: &[bool], axis: ScanAxis, period: f32) {
+    /// Find the boundaries of `restored` along `axis`; `linear` is the frame in linear
+    /// light (the noise of a ratio depends on the light level), `flags` its
+    /// [`pixel_flags_into`], `period` the expected stripe period in pixels.
+    pub fn run(&mut self, restored: &Restored, linear: &[Rgb], flags: &[PixelFlags], axis: ScanAxis, period: f32) {
         let (w, h) = (restored.width, restored.height);
         let (nlines, len) = axis.lines(w, h);
         self.axis = Some(axis);
         self.lines.resize_with(nlines, Vec::new);
         let sc = &mut self.scratch;
-        for s in sc.signal.iter_mut() {
-            s.resize(len, 0.0);
+        for ch in 0..3 {
+            sc.signal[ch].resize(len, 0.0);
+            sc.level[ch].resize(len, 0.0);
         }
+        sc.flags.resize(len, 0);
         sc.strength.resize(len, 0.0);
-        sc.ok.resize(len, false);
         let mut run_id = 0u32;
         for line in 0..nlines {
             let edges = &mut self.lines[line];
             edges.clear();
             for s in 0..len {
                 let i = axis.index(line, s, w);
-                sc.ok[s] = usable[i];
+                sc.flags[s] = flags[i];
                 for ch in 0..3 {
                     sc.signal[ch][s] = restored.log[ch][i];
+                    sc.level[ch][s] = linear[i][ch];
                 }
             }
-            // Edge strength: squared central differences, summed over channels; only
-            // where the three pixels involved are usable.
+            let ok = |f: PixelFlags| f & UNUSABLE == 0;
+            // Edge strength: squared central differences, summed over the channels
+            // that are not dark at the three pixels involved (a dark channel's log is
+            // noise); only where the three pixels are usable.
             sc.strength[0] = 0.0;
             sc.strength[len - 1] = 0.0;
             for s in 1..len - 1 {
-                sc.strength[s] = if sc.ok[s - 1] && sc.ok[s] && sc.ok[s + 1] {
-                    (0..3).map(|ch| (0.5 * (sc.signal[ch][s + 1] - sc.signal[ch][s - 1])).powi(2)).sum()
+                let (fa, fb, fc) = (sc.flags[s - 1], sc.flags[s], sc.flags[s + 1]);
+                sc.strength[s] = if ok(fa) && ok(fb) && ok(fc) {
+                    let dark = fa | fb | fc;
+                    (0..3)
+                        .filter(|&ch| dark & (1 << (3 + ch)) == 0)
+                        .map(|ch| (0.5 * (sc.signal[ch][s + 1] - sc.signal[ch][s - 1])).powi(2))
+                        .sum()
                 } else {
                     0.0
                 };
@@ -188,10 +248,10 @@ impl Segmentation {
             // parabolic sub-pixel refinement.
             let mut s = 1;
             while s + 1 < len {
-                if !sc.ok[s] {
+                if !ok(sc.flags[s]) {
                     run_id += 1;
                     // Skip the unusable stretch.
-                    while s + 1 < len && !sc.ok[s] {
+                    while s + 1 < len && !ok(sc.flags[s]) {
                         s += 1;
                     }
                     continue;
@@ -214,82 +274,177 @@ impl Segmentation {
                     let (a, b, c) = (lin(s - 1), lin(s), lin(s + 1));
                     let den = a - 2.0 * b + c;
                     let offset = if den < 0.0 { (0.5 * (a - c) / den).clamp(-0.5, 0.5) } else { 0.0 };
-                    edges.push(Edge { pos: s as f32 + offset, code: NO_CODE, run: run_id, id: -1 });
+                    edges.push(Edge { pos: s as f32 + offset, code: NO_CODE, mask: 0, run: run_id, id: -1 });
                 }
                 s += 1;
             }
             run_id += 1;
-            classify(edges, &sc.signal, &sc.ok, period);
-            edges.retain(|e| e.code != NOT_A_BOUNDARY);
+            classify(edges, sc, period);
+            edges.retain(|e| e.mask != 0);
         }
     }
 }
 
-/// Mean of `signal` over the usable pixels strictly between positions `a` and `b`,
-/// keeping a margin of a pixel from each end (the blurred transition); `None` when
-/// nothing is left.
-fn plateau(signal: &[f32], ok: &[bool], a: f32, b: f32) -> Option<f32> {
+/// What one side of a boundary shows in one channel.
+#[derive(Clone, Copy, Debug, Default)]
+struct Side {
+    /// Mean restored log signal.
+    log: f32,
+    /// Mean linear level.
+    level: f32,
+    /// Pixels averaged.
+    n: u32,
+    /// Some pixel was clipped in this channel.
+    clipped: bool,
+    /// Some pixel was dark in this channel.
+    dark: bool,
+}
+
+/// The plateau strictly between positions `a` and `b` in channel `ch`, keeping a
+/// margin of a pixel from each end (the blurred transition); `None` when it holds an
+/// unusable pixel or nothing.
+fn plateau(sc: &LineScratch, ch: usize, a: f32, b: f32) -> Option<Side> {
+    let len = sc.flags.len();
     let lo = (a + 1.0).ceil().max(0.0) as usize;
     let hi = (b - 1.0).floor();
-    if hi < lo as f32 {
+    let (lo, hi) = if hi < lo as f32 {
         // A narrow stripe: the sample halfway.
         let mid = ((a + b) * 0.5).round();
-        if mid < 0.0 || mid as usize >= signal.len() || !ok[mid as usize] {
+        if mid < 0.0 || mid as usize >= len {
             return None;
         }
-        return Some(signal[mid as usize]);
-    }
-    let hi = (hi as usize).min(signal.len() - 1);
-    let (mut sum, mut n) = (0.0, 0);
+        (mid as usize, mid as usize)
+    } else {
+        (lo, (hi as usize).min(len - 1))
+    };
+    let mut side = Side::default();
     for s in lo..=hi {
-        if !ok[s] {
+        let f = sc.flags[s];
+        if f & UNUSABLE != 0 {
             return None;
         }
-        sum += signal[s];
-        n += 1;
+        side.log += sc.signal[ch][s];
+        side.level += sc.level[ch][s];
+        side.n += 1;
+        side.clipped |= f & (1 << ch) != 0;
+        side.dark |= f & (1 << (3 + ch)) != 0;
     }
-    (n > 0).then(|| sum / n as f32)
+    if side.n == 0 {
+        return None;
+    }
+    side.log /= side.n as f32;
+    side.level /= side.n as f32;
+    Some(side)
 }
 
-/// Give each edge its transition code from the plateaus either side (bounded by the
-/// neighbouring edges, or a typical stripe width at the ends of a run).
-fn classify(edges: &mut [Edge], signal: &[Vec<f32>; 3], ok: &[bool], period: f32) {
+/// The noise (standard deviation) of a side's mean log signal.
+fn log_noise(side: &Side) -> f32 {
+    NOISE_LINEAR / (side.level.max(DARK_LEVEL) * (side.n as f32).sqrt())
+}
+
+/// Which of down (bit 0), unchanged (bit 1) and up (bit 2) a channel allows.
+type Values = u8;
+const DOWN: Values = 1;
+const SAME: Values = 2;
+const UP: Values = 4;
+const ANY_VALUE: Values = DOWN | SAME | UP;
+
+/// The codes compatible with per-channel value sets.
+fn codes_of(values: [Values; 3]) -> CodeMask {
+    let mut mask = 0;
+    for r in 0..3 {
+        for g in 0..3 {
+            for b in 0..3 {
+                if values[0] & (1 << r) != 0 && values[1] & (1 << g) != 0 && values[2] & (1 << b) != 0 {
+                    mask |= 1 << (r * 9 + g * 3 + b);
+                }
+            }
+        }
+    }
+    mask & ANY_BOUNDARY
+}
+
+/// Give each edge its compatible codes from the plateaus either side (bounded by the
+/// neighbouring edges, or a typical stripe width at the ends of a run); edges that are
+/// no boundary of this family get an empty mask.
+fn classify(edges: &mut [Edge], sc: &LineScratch, period: f32) {
     let n = edges.len();
     for i in 0..n {
         let here = edges[i];
         let prev = if i > 0 && edges[i - 1].run == here.run { edges[i - 1].pos } else { here.pos - period };
         let next = if i + 1 < n && edges[i + 1].run == here.run { edges[i + 1].pos } else { here.pos + period };
-        let mut delta = [0f32; 3];
+        let mut sides = [(Side::default(), Side::default()); 3];
         let mut readable = true;
-        for ch in 0..3 {
-            match (plateau(&signal[ch], ok, prev, here.pos), plateau(&signal[ch], ok, here.pos, next)) {
-                (Some(l), Some(r)) => delta[ch] = r - l,
+        for (ch, side) in sides.iter_mut().enumerate() {
+            match (plateau(sc, ch, prev, here.pos), plateau(sc, ch, here.pos, next)) {
+                (Some(l), Some(r)) => *side = (l, r),
                 _ => readable = false,
             }
         }
         if !readable {
+            // Not enough of a stripe on one side to read: an edge of unknown transition,
+            // which still keeps its place in the order of boundaries.
+            edges[i].mask = ANY_BOUNDARY;
             continue;
         }
-        let largest = delta.iter().fold(0f32, |m, d| m.max(d.abs()));
-        if largest < MIN_STEP {
-            // Too little change for a boundary of this family: noise, shading, or
-            // another family's boundary leaking through the restoration. Not kept, so
-            // that it does not split a window of real boundaries.
-            edges[i].code = NOT_A_BOUNDARY;
-            continue;
-        }
-        let mut t = [0i8; 3];
-        let mut ambiguous = false;
+        // Per channel: the step, its noise, and whether it can be read at all.
+        let mut delta = [0f32; 3];
+        let mut sigma = [0f32; 3];
+        let mut wildcard = [false; 3];
         for ch in 0..3 {
-            let f = delta[ch].abs() / largest;
-            if f >= CHANGED_FRACTION {
-                t[ch] = delta[ch].signum() as i8;
-            } else if f > UNCHANGED_FRACTION {
-                ambiguous = true;
-            }
+            let (l, r) = sides[ch];
+            delta[ch] = r.log - l.log;
+            sigma[ch] = log_noise(&l).hypot(log_noise(&r));
+            wildcard[ch] = l.dark || r.dark || (l.clipped && r.clipped);
         }
-        if !ambiguous {
-            edges[i].code = pack(t);
+        // The reference step: the largest significant change among readable channels,
+        // preferring channels not clipped on either side (a clipped step is a bound).
+        let significant = |ch: usize| !wildcard[ch] && delta[ch].abs() > NOISE_SIGMAS * sigma[ch];
+        let clean = |ch: usize| significant(ch) && !sides[ch].0.clipped && !sides[ch].1.clipped;
+        let largest_of = |pick: &dyn Fn(usize) -> bool| (0..3).filter(|&c| pick(c)).fold(0f32, |m, c| m.max(delta[c].abs()));
+        let mut largest = largest_of(&clean);
+        if largest == 0.0 {
+            largest = largest_of(&significant);
+        }
+        if largest < MIN_STEP {
+            // Too little reliable change for a boundary of this family: noise, shading,
+            // or another family's boundary leaking through the restoration. Dropped, so
+            // that it does not split a window of real boundaries.
+            continue;
+        }
+        let mut values = [ANY_VALUE; 3];
+        for ch in 0..3 {
+            if wildcard[ch] {
+                continue;
+            }
+            let (l, r) = sides[ch];
+            let tol = VALUE_TOLERANCE * largest + NOISE_SIGMAS * sigma[ch];
+            let d = delta[ch];
+            let mut v: Values = 0;
+            for (bit, value) in [(DOWN, -largest), (SAME, 0.0), (UP, largest)] {
+                // A side clipped in this channel reads too low: the true step is at least
+                // what is seen when the right side clipped, at most when the left did.
+                let fits = if r.clipped {
+                    value >= d - tol
+                } else if l.clipped {
+                    value <= d + tol
+                } else {
+                    (d - value).abs() <= tol
+                };
+                if fits {
+                    v |= bit;
+                }
+            }
+            if v == 0 {
+                // Between the values (a step of about half the largest): either.
+                v = if d > 0.0 { SAME | UP } else { SAME | DOWN };
+            }
+            values[ch] = v;
+        }
+        let mask = codes_of(values);
+        edges[i].mask = mask;
+        if mask.count_ones() == 1 {
+            edges[i].code = mask.trailing_zeros() as Code;
         }
     }
 }

@@ -239,6 +239,68 @@ pub fn log_plane_into(img: &Image<Rgb>, channel: usize, dst: &mut [f32]) {
     }
 }
 
+/// Average each channel of `restored` along its family's stripes (perpendicular to
+/// `restored.dominant`) over `length` pixels, through `tmp`.
+///
+/// Without restoration (`direct`) a family's log image also holds the other families'
+/// stripes, which cross its own: along this family's stripes they repeat every
+/// `P_m / |sin(θ_m − θ_k)|` pixels (their period over the sine of the angle between the
+/// normals), so a box of that length cancels them, while this family's boundaries, which
+/// run along the box, stay sharp; after restoration it also averages the noise.
+///
+/// Samples are taken one pixel apart along the stripes' main image axis (v for stripes
+/// nearer vertical) and interpolated linearly across it, so that the box follows the
+/// stripe exactly (rounding the path to whole pixels shifts boundaries by up to half a
+/// pixel, which three families then disagree about); the box's two end samples take
+/// fractional weights so that its length is exact; samples beyond the image are clamped
+/// to its border.
+pub fn smooth_along_stripes(restored: &mut Restored, length: f32, tmp: &mut Vec<f32>) {
+    let (w, h) = (restored.width, restored.height);
+    if w == 0 || h == 0 {
+        return;
+    }
+    let (sin, cos) = restored.dominant.sin_cos();
+    let (dx, dy) = (-sin, cos);
+    let along_v = dy.abs() >= dx.abs();
+    let (slope, main) = if along_v { (dx / dy, dy.abs()) } else { (dy / dx, dx.abs()) };
+    // The box spans `length` pixels along the stripe: length·main steps of the main axis.
+    let steps = (length * main).max(1.0);
+    let inner = ((steps - 1.0) / 2.0).floor().max(0.0) as isize;
+    let end_weight = ((steps - (2 * inner + 1) as f32) / 2.0).clamp(0.0, 1.0);
+    let total = (2 * inner + 1) as f32 + 2.0 * end_weight;
+    // In the frame (a, b): b runs along the main axis (`nb` long), a across (`na`).
+    let (na, nb) = if along_v { (w, h) } else { (h, w) };
+    tmp.resize(w * h, 0.0);
+    for plane in restored.log.iter_mut() {
+        tmp.copy_from_slice(plane);
+        let src = &tmp[..];
+        let sample = |a: f32, b: isize| -> f32 {
+            let b = b.clamp(0, nb as isize - 1) as usize;
+            let a = a.clamp(0.0, (na - 1) as f32);
+            let a0 = a as usize;
+            let a1 = (a0 + 1).min(na - 1);
+            let f = a - a0 as f32;
+            let (i0, i1) = if along_v { (b * w + a0, b * w + a1) } else { (a0 * w + b, a1 * w + b) };
+            src[i0] + (src[i1] - src[i0]) * f
+        };
+        for b in 0..nb {
+            for a in 0..na {
+                let (af, bi) = (a as f32, b as isize);
+                let mut sum = 0.0;
+                for t in -inner..=inner {
+                    sum += sample(af + slope * t as f32, bi + t);
+                }
+                if end_weight > 0.0 {
+                    let t = inner + 1;
+                    sum += end_weight * (sample(af + slope * t as f32, bi + t) + sample(af - slope * t as f32, bi - t));
+                }
+                let i = if along_v { b * w + a } else { a * w + b };
+                plane[i] = sum / total;
+            }
+        }
+    }
+}
+
 /// Box filter of radius `r` (clamped at the borders) of a `w` x `h` plane, separable,
 /// through `tmp`.
 pub fn box_filter_into(src: &[f32], dst: &mut [f32], tmp: &mut [f32], w: usize, h: usize, r: usize) {
