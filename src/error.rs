@@ -13,6 +13,17 @@ pub enum Error {
         /// What is wrong with it.
         problem: String,
     },
+    /// A calibration from another tool (OpenCV, Bouguet's toolbox) that cannot be
+    /// imported: which format it was read as, which of its fields, what is wrong.
+    Import {
+        /// The format the file was read as, e.g. `OpenCV YAML`; `unknown` when none fits.
+        format: &'static str,
+        /// The field as the file names it, e.g. `cam_K` or `kc_left(6)`, or
+        /// `line 3, column 7` for a syntax error.
+        field: String,
+        /// What is wrong with it.
+        problem: String,
+    },
     /// A pattern spec file is malformed or inconsistent.
     Spec {
         /// Dotted path of the offending field, e.g. `families[1].angle_deg`.
@@ -82,10 +93,33 @@ pub enum Error {
     Internal(String),
 }
 
+/// Writes through to a formatter with control characters escaped (`\n` as the two
+/// characters `\` `n`), so that an error stays one line whatever input text it quotes
+/// (a JSON key holding an escaped newline, a file name).
+struct OneLine<'a, 'b>(&'a mut fmt::Formatter<'b>);
+
+impl fmt::Write for OneLine<'_, '_> {
+    fn write_str(&mut self, s: &str) -> fmt::Result {
+        for c in s.chars() {
+            if c.is_control() {
+                write!(self.0, "{}", c.escape_default())?;
+            } else {
+                fmt::Write::write_char(self.0, c)?;
+            }
+        }
+        Ok(())
+    }
+}
+
 impl fmt::Display for Error {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        use fmt::Write as _;
+        let f = &mut OneLine(f);
         match self {
             Error::Calib { field, problem } => write!(f, "calibration: {field}: {problem}"),
+            Error::Import { format, field, problem } => {
+                write!(f, "calibration import ({format}): {field}: {problem}")
+            }
             Error::Spec { field, problem } => write!(f, "pattern spec: {field}: {problem}"),
             Error::ImageSize { expected, got } => write!(
                 f,

@@ -6,6 +6,10 @@
 //! a point `X_c` in camera coordinates is `X_p = R X_c + t` in projector coordinates
 //! (`proj_from_cam`). Lengths are millimetres. Distortion is OpenCV's
 //! `[k1, k2, p1, p2, k3]`, applied to normalized coordinates.
+//!
+//! [`import`] reads calibrations made by other tools (OpenCV, Bouguet's toolbox).
+
+pub mod import;
 
 use crate::error::{Error, Result};
 use glam::{DMat3, DVec2, DVec3};
@@ -315,8 +319,9 @@ impl Calibration {
         let camera = device("camera", rig.camera_width, rig.camera_height, rig.camera_hfov_deg)?;
         let projector = device("projector", rig.projector_width, rig.projector_height, rig.projector_hfov_deg)?;
         let center = DVec3::from_array(rig.baseline_mm);
-        if !center.is_finite() || center.length() < 1.0 {
-            return Err(err("baseline_mm", format!("must be a finite vector of at least 1 mm, got {center}")));
+        // Past a kilometre it is a typing error (and the squares of such lengths overflow).
+        if !center.is_finite() || !(1.0..=1e6).contains(&center.length()) {
+            return Err(err("baseline_mm", format!("must be a finite vector of 1 mm to 1 km, got {:?}", rig.baseline_mm)));
         }
         if !rig.aim_distance_mm.is_finite() || rig.aim_distance_mm <= 0.0 {
             return Err(err("aim_distance_mm", format!("must be a positive distance, got {}", rig.aim_distance_mm)));
@@ -324,6 +329,14 @@ impl Calibration {
         let target = DVec3::new(0.0, 0.0, rig.aim_distance_mm);
         if (target - center).length() < 1.0 {
             return Err(err("aim_distance_mm", "puts the aim point at the projector itself".into()));
+        }
+        // `aimed` takes the projector's x axis as close to the camera's as the aim
+        // allows: aiming along the camera's x axis leaves it undefined (NaN).
+        if (target - center).normalize().cross(DVec3::X).length() < 1e-6 {
+            return Err(err(
+                "aim_distance_mm",
+                format!("with baseline_mm {center} aims the projector along the camera's x axis, which leaves its orientation undefined"),
+            ));
         }
         let calib = Self::aimed(camera, projector, center, target);
         calib.validate()?;
@@ -551,10 +564,13 @@ pub fn crosstalk_inverse(m: &Crosstalk) -> Result<Option<glam::Mat3>> {
         return Ok(None);
     }
     let mix = glam::Mat3::from_cols_array_2d(m).transpose();
-    if mix.determinant().abs() < CROSSTALK_MIN_DETERMINANT {
+    // Huge values overflow the determinant to infinity or NaN (which no comparison
+    // refuses) and the inverse to NaN, which would reach every pixel: refused alike.
+    let inverse = mix.inverse();
+    if !(mix.determinant().abs() >= CROSSTALK_MIN_DETERMINANT && mix.determinant().is_finite() && inverse.is_finite()) {
         return Err(Error::Setting { name: "crosstalk", problem: format!("{m:?} cannot be inverted") });
     }
-    Ok(Some(mix.inverse()))
+    Ok(Some(inverse))
 }
 
 /// Least fraction of a primary's frame that must be well exposed (neither dark nor
