@@ -72,6 +72,43 @@ pub enum Shape {
     /// A sheet `z = z0 + h(x, y)` over a rectangle, see [`HeightField`]. Surface
     /// coordinates: `(x, y)` of the camera frame.
     HeightField(HeightField),
+    /// A rectangular sheet (a card, a chart, a board) bent around one axis: a piece of
+    /// a cylinder's side, or flat when `curvature` is 0. In the sheet's own frame
+    /// (`axes` columns: across the bend, along the bend axis, the normal at the
+    /// centre pointing away from the side it faces) the sheet is
+    /// `(sin(κs)/κ, t, (1 − cos(κs))/κ)` for `|s| <= half_size.x`, `|t| <= half_size.y`,
+    /// κ = `curvature`: with κ > 0 its sides curl away along the third axis (convex
+    /// towards a viewer on the −z side), with κ < 0 towards it. Surface coordinates:
+    /// `(s, t)`, arc length across the bend and distance along it, from the centre.
+    BentSheet {
+        /// Centre of the sheet, mm.
+        center: DVec3,
+        /// Columns: the sheet's across, along and normal axes in the camera frame.
+        axes: DMat3,
+        /// 1 / bend radius, 1/mm (0 for a flat sheet).
+        curvature: f64,
+        /// Half the sheet's width (arc length) and height, mm.
+        half_size: DVec2,
+    },
+}
+
+/// The point of a bent sheet (own frame) at surface coordinates (s, t), and the angle
+/// κs; flat sheets have angle 0.
+fn bent_point(curvature: f64, s: f64, t: f64) -> DVec3 {
+    if curvature == 0.0 {
+        return DVec3::new(s, t, 0.0);
+    }
+    let (sin, cos) = (curvature * s).sin_cos();
+    DVec3::new(sin / curvature, t, (1.0 - cos) / curvature)
+}
+
+/// Surface coordinates (s, t) of a point on (or near) a bent sheet, own frame.
+fn bent_coords(curvature: f64, q: DVec3) -> DVec2 {
+    if curvature == 0.0 {
+        return DVec2::new(q.x, q.y);
+    }
+    let angle = (curvature * q.x).atan2(1.0 - curvature * q.z);
+    DVec2::new(angle / curvature, q.y)
 }
 
 /// A sheet `z = z0 + h(x, y)` over the rectangle `x_range × y_range` of the camera frame.
@@ -567,6 +604,41 @@ impl Shape {
                 nearest(&cand, t_min, t_max)
             }
             Shape::HeightField(field) => field.intersect(o, d, t_min, t_max),
+            Shape::BentSheet { center, axes, curvature, half_size } => {
+                let ol = axes.transpose() * (o - *center);
+                let dl = axes.transpose() * d;
+                let k = *curvature;
+                let on_sheet = |t: f64| {
+                    let st = bent_coords(k, ol + dl * t);
+                    st.x.abs() <= half_size.x && st.y.abs() <= half_size.y
+                };
+                let mut cand = [f64::NAN; 2];
+                if k == 0.0 {
+                    if dl.z != 0.0 {
+                        cand[0] = -ol.z / dl.z;
+                    }
+                } else {
+                    // The cylinder x² + (z − 1/κ)² = 1/κ², times κ: κ(x² + z²) − 2z = 0.
+                    let a = k * (dl.x * dl.x + dl.z * dl.z);
+                    let b = k * (ol.x * dl.x + ol.z * dl.z) - dl.z;
+                    let c = k * (ol.x * ol.x + ol.z * ol.z) - 2.0 * ol.z;
+                    let disc = b * b - a * c;
+                    if disc >= 0.0 && a != 0.0 {
+                        let q = -(b + disc.sqrt().copysign(b));
+                        if q != 0.0 {
+                            cand = [q / a, c / q];
+                        }
+                    } else if a == 0.0 && b != 0.0 {
+                        cand[0] = -c / (2.0 * b);
+                    }
+                }
+                for slot in cand.iter_mut() {
+                    if !slot.is_nan() && !on_sheet(*slot) {
+                        *slot = f64::NAN;
+                    }
+                }
+                nearest(&cand, t_min, t_max)
+            }
         }
     }
 
@@ -631,6 +703,23 @@ impl Shape {
                 }
             }
             Shape::HeightField(field) => (field.shading_normal(p.x, p.y), DVec2::new(p.x, p.y)),
+            Shape::BentSheet { center, axes, curvature, .. } => {
+                let st = bent_coords(*curvature, axes.transpose() * (p - *center));
+                let (sin, cos) = (curvature * st.x).sin_cos();
+                (*axes * DVec3::new(sin, 0.0, -cos), st)
+            }
+        }
+    }
+
+    /// The camera-frame point of a bent sheet at surface coordinates `st`; `None` for
+    /// other shapes or outside the sheet.
+    pub fn sheet_point(&self, st: DVec2) -> Option<DVec3> {
+        match self {
+            Shape::BentSheet { center, axes, curvature, half_size } => {
+                (st.x.abs() <= half_size.x && st.y.abs() <= half_size.y)
+                    .then(|| *center + *axes * bent_point(*curvature, st.x, st.y))
+            }
+            _ => None,
         }
     }
 
@@ -676,6 +765,22 @@ impl Shape {
                 }
             }
             Shape::HeightField(_) => {}
+            Shape::BentSheet { center, axes, curvature, half_size } => {
+                let dev = (*axes * axes.transpose() - DMat3::IDENTITY)
+                    .to_cols_array()
+                    .iter()
+                    .fold(0f64, |m, x| m.max(x.abs()));
+                let ok = finite(*center)
+                    && dev < 1e-6
+                    && curvature.is_finite()
+                    && half_size.is_finite()
+                    && half_size.min_element() > 0.0
+                    // Less than half a turn each way, so that (s, t) is unique.
+                    && curvature.abs() * half_size.x < std::f64::consts::PI;
+                if !ok {
+                    return bad("a bent sheet needs a finite centre, orthonormal axes, a positive size and less than a full turn of bend");
+                }
+            }
         }
         Ok(())
     }

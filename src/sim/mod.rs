@@ -39,7 +39,21 @@
 //! 0..=1, encoded as `x^(1 / camera_gamma)` and rounded to 8 bits.
 //!
 //! The ground truth ([`Frame::depth`], [`Frame::projector`], [`Frame::lit`]) is
-//! computed for the single ray through each pixel centre.
+//! computed for the single ray through each pixel centre; [`Frame::lit_share`] is the
+//! share of all the pixel's rays that are lit.
+//!
+//! Two optional stages model a webcam's output (both off by default): 4:2:0 chroma
+//! subsampling ([`chroma_420`]: the 8-bit frame to YCbCr, each 2 x 2 block's chroma
+//! averaged, back to RGB) and a JPEG round trip ([`jpeg_round_trip`]).
+//!
+//! # Many frames of one view
+//!
+//! Everything up to the projector's emission depends only on the scene, the rig and
+//! the supersampling: a [`View`] traces it once (every ray's surface point, albedo,
+//! shading factor and projector pixel), and [`View::photograph_into`] then makes a
+//! frame for any projector image at the cost of the emission look-ups and the camera
+//! stages. [`render`] is a view photographed once. Multi-shot references (a Gray-code
+//! sequence, the white-card frames of a colour calibration) use one view per scene.
 //!
 //! ```
 //! use stripelight::{sim, Calibration, Image};
@@ -55,12 +69,15 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 mod geometry;
+pub mod pigments;
+pub mod rig;
 mod scene;
 mod sensor;
 mod texture;
 
 pub use geometry::{HeightField, Shape};
 pub use scene::{Hit, Object, Scene};
+pub use sensor::{chroma_420, jpeg_round_trip, CLIPPED};
 pub use texture::Texture;
 
 use crate::calib::{Calibration, Intrinsics};
@@ -90,6 +107,10 @@ const MAX_SUPERSAMPLE: usize = 8;
 /// Largest camera accepted, pixels (64 megapixels; a simulated frame of that size
 /// already takes about a gigabyte).
 const MAX_CAMERA_PIXELS: usize = 1 << 26;
+
+/// Most rays a [`View`] keeps (2^27, 4 GiB of samples at 32 bytes each): a
+/// 64-megapixel camera with one ray per pixel, or an 8-megapixel one with 4 x 4.
+const MAX_SAMPLES: usize = 1 << 27;
 
 /// How the simulated projector and camera behave. `Default` gives a realistic
 /// LCD projector and 3CCD camera in a dim room at the demo rig's working distance.
@@ -130,6 +151,12 @@ pub struct SimConfig {
     /// it falls off as the inverse square of the distance to the projector's centre.
     /// 0 turns the falloff off. Default 750 mm, the demo rig's working distance.
     pub reference_distance: f32,
+    /// Subsample the output frame's chroma 4:2:0 ([`chroma_420`]), as most webcams'
+    /// YUV and MJPEG streams do. Default off.
+    pub chroma_420: bool,
+    /// Pass the output frame through a JPEG encoder of this quality (1-100) and its
+    /// decoder ([`jpeg_round_trip`]), after the chroma subsampling. Default `None`.
+    pub jpeg_quality: Option<u8>,
 }
 
 impl Default for SimConfig {
@@ -147,6 +174,8 @@ impl Default for SimConfig {
             supersample: 2,
             seed: 0,
             reference_distance: 750.0,
+            chroma_420: false,
+            jpeg_quality: None,
         }
     }
 }
@@ -195,6 +224,11 @@ impl SimConfig {
                 self.supersample
             )));
         }
+        if let Some(q) = self.jpeg_quality {
+            if !(1..=100).contains(&q) {
+                return Err(Error::Scene(format!("jpeg_quality must be in 1..=100, got {q}")));
+            }
+        }
         Ok(())
     }
 }
@@ -215,6 +249,10 @@ pub struct Frame {
     /// Whether the point seen at each pixel centre receives projector light: inside
     /// the projector image, facing it, and not in shadow.
     pub lit: Image<bool>,
+    /// The share of each pixel's rays (`supersample`² of them) whose points receive
+    /// projector light: 0 where no projector light reaches any part of the pixel,
+    /// between 0 and 1 on the edges of the light and of shadows.
+    pub lit_share: Image<f32>,
 }
 
 impl Frame {
@@ -225,6 +263,7 @@ impl Frame {
             depth: Image::new(width, height, f32::NAN),
             projector: Image::new(width, height, [f32::NAN; 2]),
             lit: Image::new(width, height, false),
+            lit_share: Image::new(width, height, 0.0),
         }
     }
 
@@ -234,6 +273,7 @@ impl Frame {
         let proj_bits = |img: &Image<[f32; 2]>| img.pixels().iter().map(|p| p.map(f32::to_bits)).collect::<Vec<_>>();
         self.image == other.image
             && self.lit == other.lit
+            && bits(&self.lit_share) == bits(&other.lit_share)
             && self.depth.size() == other.depth.size()
             && bits(&self.depth) == bits(&other.depth)
             && proj_bits(&self.projector) == proj_bits(&other.projector)
@@ -260,61 +300,261 @@ pub fn render_into(
     cfg: &SimConfig,
     frame: &mut Frame,
 ) -> Result<()> {
-    calib.validate()?;
-    cfg.validate()?;
     projector_image.expect_size(calib.projector.width as usize, calib.projector.height as usize)?;
-    let (w, h) = (calib.camera.width as usize, calib.camera.height as usize);
-    if w as u64 * h as u64 > MAX_CAMERA_PIXELS as u64 {
-        return Err(Error::Scene(format!(
-            "a {w}x{h} camera is more than {MAX_CAMERA_PIXELS} pixels"
-        )));
-    }
-    let sizes = [frame.image.size(), frame.depth.size(), frame.projector.size(), frame.lit.size()];
+    let view = View::new(scene, calib, cfg)?;
+    let (w, h) = view.size();
+    let sizes = [frame.image.size(), frame.depth.size(), frame.projector.size(), frame.lit.size(), frame.lit_share.size()];
     if sizes.iter().any(|&s| s != (w, h)) {
         *frame = Frame::new(w, h);
     }
-    let light = Light::new(calib, projector_image, cfg);
-    let rays = CameraRays::new(&calib.camera);
-    let n = cfg.supersample;
-    let offsets: Vec<f64> = (0..n).map(|k| (k as f64 + 0.5) / n as f64 - 0.5).collect();
-    let weight = 1.0 / (n * n) as f32;
-    let mut linear = Image::new(w, h, [0f32; 3]);
-    for v in 0..h {
-        for u in 0..w {
-            let centre_ray = rays.centre(u, v);
-            let centre = scene.cast(DVec3::ZERO, centre_ray, 0.0, f64::INFINITY);
-            let centre_shade = centre.map(|hit| light.shade(scene, &hit));
-            *frame.depth.get_mut(u, v) = centre.map_or(f32::NAN, |hit| hit.point.z as f32);
-            let at_projector = centre_shade.and_then(|s| s.projector);
-            *frame.projector.get_mut(u, v) = at_projector.map_or([f32::NAN; 2], |p| [p.x as f32, p.y as f32]);
-            *frame.lit.get_mut(u, v) = at_projector.is_some();
+    frame.depth.pixels_mut().copy_from_slice(view.truth.depth.pixels());
+    frame.projector.pixels_mut().copy_from_slice(view.truth.projector.pixels());
+    frame.lit.pixels_mut().copy_from_slice(view.truth.lit.pixels());
+    frame.lit_share.pixels_mut().copy_from_slice(view.truth.lit_share.pixels());
+    view.photograph_into(projector_image, cfg, &mut Scratch::default(), &mut frame.image)
+}
 
-            let mut sum = [0f32; 3];
-            for &dv in &offsets {
-                for &du in &offsets {
-                    let radiance = if du == 0.0 && dv == 0.0 {
-                        centre_shade.map(|s| s.radiance)
-                    } else {
-                        let ray = rays.at(u as f64 + du, v as f64 + dv);
-                        scene
-                            .cast(DVec3::ZERO, ray, 0.0, f64::INFINITY)
-                            .map(|hit| light.shade(scene, &hit).radiance)
-                    };
-                    if let Some(r) = radiance {
-                        for c in 0..3 {
-                            sum[c] += r[c];
-                        }
+/// What one camera ray meets: the surface's albedo, the projector's shading factor
+/// there and the projector pixel that lights it. A ray that meets nothing has zero
+/// albedo; an unlit point has a NaN pixel.
+#[derive(Clone, Copy, Debug)]
+struct Sample {
+    albedo: Rgb,
+    /// cos θ · (reference_distance / r)², see the module documentation.
+    gain: f32,
+    /// Projector pixel, NaN when unlit (or nothing is hit).
+    px: DVec2,
+}
+
+/// A scene seen by a rig's camera, traced once: per camera ray what it meets and how
+/// the projector lights it, and the ground truth. Photographing it under a projector
+/// image costs only the emission look-ups and the camera stages, so multi-shot
+/// sequences (Gray codes, colour calibration frames) trace each scene once.
+///
+/// ```
+/// use stripelight::{sim, Calibration, Image};
+/// let calib = Calibration::demo();
+/// let cfg = sim::SimConfig::default();
+/// let view = sim::View::new(&sim::Scene::builtin("plane").unwrap(), &calib, &cfg).unwrap();
+/// let mut frame = Image::new(0, 0, [0u8; 3]);
+/// let mut scratch = sim::Scratch::default();
+/// view.photograph_into(&Image::new(1024, 768, [255u8; 3]), &cfg, &mut scratch, &mut frame).unwrap();
+/// assert_eq!(frame.size(), (640, 480));
+/// ```
+pub struct View {
+    width: usize,
+    height: usize,
+    projector_size: (usize, usize),
+    /// The supersampling and falloff the samples were traced with.
+    supersample: usize,
+    reference_distance: f32,
+    /// `supersample`² samples per pixel, pixel after pixel, row by row; within a
+    /// pixel rows of rays top to bottom, each left to right.
+    samples: Vec<Sample>,
+    /// The ground truth; its image is black.
+    truth: Frame,
+}
+
+/// Reusable buffers of [`View::photograph_into`].
+#[derive(Clone, Debug, Default)]
+pub struct Scratch {
+    linear: Image<Rgb>,
+    blur: Vec<Rgb>,
+}
+
+impl View {
+    /// Trace `scene` through `calib`'s camera with `cfg`'s supersampling and
+    /// `reference_distance`. Fails on an invalid calibration or configuration.
+    pub fn new(scene: &Scene, calib: &Calibration, cfg: &SimConfig) -> Result<View> {
+        calib.validate()?;
+        cfg.validate()?;
+        let (w, h) = (calib.camera.width as usize, calib.camera.height as usize);
+        if w as u64 * h as u64 > MAX_CAMERA_PIXELS as u64 {
+            return Err(Error::Scene(format!(
+                "a {w}x{h} camera is more than {MAX_CAMERA_PIXELS} pixels"
+            )));
+        }
+        let n = cfg.supersample;
+        if (w * h) as u64 * (n * n) as u64 > MAX_SAMPLES as u64 {
+            return Err(Error::Scene(format!(
+                "a {w}x{h} camera with {n} x {n} rays per pixel is more than {MAX_SAMPLES} rays; lower supersample"
+            )));
+        }
+        let geometry = ProjectorGeometry::new(calib, cfg);
+        let rays = CameraRays::new(&calib.camera);
+        let offsets: Vec<f64> = (0..n).map(|k| (k as f64 + 0.5) / n as f64 - 0.5).collect();
+        let mut truth = Frame::new(w, h);
+        let mut samples = Vec::with_capacity(w * h * n * n);
+        let miss = Sample { albedo: [0.0; 3], gain: 0.0, px: DVec2::NAN };
+        for v in 0..h {
+            for u in 0..w {
+                let centre = scene.cast(DVec3::ZERO, rays.centre(u, v), 0.0, f64::INFINITY);
+                let centre_sample = centre.map(|hit| geometry.sample(scene, &hit));
+                *truth.depth.get_mut(u, v) = centre.map_or(f32::NAN, |hit| hit.point.z as f32);
+                let lit = centre_sample.filter(|s| !s.px.x.is_nan());
+                *truth.projector.get_mut(u, v) = lit.map_or([f32::NAN; 2], |s| [s.px.x as f32, s.px.y as f32]);
+                *truth.lit.get_mut(u, v) = lit.is_some();
+                for &dv in &offsets {
+                    for &du in &offsets {
+                        let sample = if du == 0.0 && dv == 0.0 {
+                            centre_sample
+                        } else {
+                            let ray = rays.at(u as f64 + du, v as f64 + dv);
+                            scene.cast(DVec3::ZERO, ray, 0.0, f64::INFINITY).map(|hit| geometry.sample(scene, &hit))
+                        };
+                        samples.push(sample.unwrap_or(miss));
                     }
                 }
+                let lit_rays = samples[samples.len() - n * n..].iter().filter(|s| !s.px.x.is_nan()).count();
+                *truth.lit_share.get_mut(u, v) = lit_rays as f32 / (n * n) as f32;
             }
-            *linear.get_mut(u, v) = sum.map(|x| x * weight);
         }
+        Ok(View {
+            width: w,
+            height: h,
+            projector_size: (calib.projector.width as usize, calib.projector.height as usize),
+            supersample: n,
+            reference_distance: cfg.reference_distance,
+            samples,
+            truth,
+        })
     }
-    sensor::crosstalk(&mut linear, &cfg.crosstalk);
-    sensor::gaussian_blur(&mut linear, cfg.blur_sigma, &mut Vec::new());
-    sensor::quantize(&linear, cfg.exposure, cfg.noise_sigma, cfg.camera_gamma, cfg.seed, &mut frame.image);
-    Ok(())
+
+    /// The camera's (width, height).
+    pub fn size(&self) -> (usize, usize) {
+        (self.width, self.height)
+    }
+
+    /// The ground truth (depth, projector pixel, lit) of every pixel centre; the
+    /// frame's image is black.
+    pub fn truth(&self) -> &Frame {
+        &self.truth
+    }
+
+    /// The frame the camera takes while the projector shows `projector_image`, into
+    /// `out` (resized to the camera). `cfg` gives the projector's response, ambient
+    /// light and every camera stage; its `supersample` and `reference_distance` must
+    /// be the ones the view was traced with ([`Error::Scene`] otherwise).
+    pub fn photograph_into(
+        &self,
+        projector_image: &Image<[u8; 3]>,
+        cfg: &SimConfig,
+        scratch: &mut Scratch,
+        out: &mut Image<[u8; 3]>,
+    ) -> Result<()> {
+        self.linear_into(projector_image, cfg, scratch)?;
+        if out.size() != (self.width, self.height) {
+            *out = Image::new(self.width, self.height, [0; 3]);
+        }
+        sensor::quantize(&scratch.linear, cfg.exposure, cfg.noise_sigma, cfg.camera_gamma, cfg.seed, out);
+        if cfg.chroma_420 {
+            chroma_420(out);
+        }
+        if let Some(q) = cfg.jpeg_quality {
+            *out = jpeg_round_trip(out, q)?;
+        }
+        Ok(())
+    }
+
+    /// The camera's linear signal before gain and noise (radiance after colour mixing
+    /// and blur) into `scratch.linear`.
+    fn linear_into(&self, projector_image: &Image<[u8; 3]>, cfg: &SimConfig, scratch: &mut Scratch) -> Result<()> {
+        cfg.validate()?;
+        projector_image.expect_size(self.projector_size.0, self.projector_size.1)?;
+        if cfg.supersample != self.supersample || cfg.reference_distance.to_bits() != self.reference_distance.to_bits() {
+            return Err(Error::Scene(format!(
+                "the view was traced with supersample {} and reference_distance {}, not {} and {}",
+                self.supersample, self.reference_distance, cfg.supersample, cfg.reference_distance
+            )));
+        }
+        let emission = Emission::new(projector_image, cfg);
+        let (w, h) = (self.width, self.height);
+        if scratch.linear.size() != (w, h) {
+            scratch.linear = Image::new(w, h, [0.0; 3]);
+        }
+        let n2 = self.supersample * self.supersample;
+        let weight = 1.0 / n2 as f32;
+        let ambient = cfg.ambient;
+        for (out, pixel) in scratch.linear.pixels_mut().iter_mut().zip(self.samples.chunks_exact(n2)) {
+            let mut sum = [0f32; 3];
+            for s in pixel {
+                // The same operations in the same order as a single render always did,
+                // so that frames stay bit-for-bit what they were.
+                let mut radiance = s.albedo.map(|a| a * ambient);
+                if !s.px.x.is_nan() {
+                    let e = emission.at(s.px);
+                    for k in 0..3 {
+                        radiance[k] += s.albedo[k] * e[k] * s.gain;
+                    }
+                }
+                for c in 0..3 {
+                    sum[c] += radiance[c];
+                }
+            }
+            *out = sum.map(|x| x * weight);
+        }
+        sensor::crosstalk(&mut scratch.linear, &cfg.crosstalk);
+        sensor::gaussian_blur(&mut scratch.linear, cfg.blur_sigma, &mut scratch.blur);
+        Ok(())
+    }
+
+    /// The camera gain at which `fraction` of the *bright-stripe pixels* clip in at
+    /// least one channel when the projector shows `projector_image` (before noise):
+    /// a user who turns the exposure up until the object looks bright. Bright-stripe
+    /// pixels are lit pixels where the projector emits at least
+    /// [`BRIGHT_STRIPE_LEVEL`] of full white in some channel. Fails when
+    /// `fraction` is not in (0, 1) or no pixel is a bright-stripe pixel.
+    pub fn exposure_for_clipping(&self, projector_image: &Image<[u8; 3]>, cfg: &SimConfig, fraction: f32) -> Result<f32> {
+        if !(fraction > 0.0 && fraction < 1.0) {
+            return Err(Error::Scene(format!("clipped fraction must be in (0, 1), got {fraction}")));
+        }
+        let mut scratch = Scratch::default();
+        self.linear_into(projector_image, cfg, &mut scratch)?;
+        let bright = self.bright_stripe_mask(projector_image, cfg);
+        let mut peaks: Vec<f32> = scratch
+            .linear
+            .pixels()
+            .iter()
+            .zip(&bright)
+            .filter(|(_, &b)| b)
+            .map(|(p, _)| p[0].max(p[1]).max(p[2]))
+            .collect();
+        if peaks.is_empty() {
+            return Err(Error::Scene("no bright-stripe pixel to set the exposure on".into()));
+        }
+        let k = ((1.0 - fraction as f64) * peaks.len() as f64) as usize;
+        let k = k.min(peaks.len() - 1);
+        let (_, &mut level, _) = peaks.select_nth_unstable_by(k, f32::total_cmp);
+        if !(level > 0.0) {
+            return Err(Error::Scene("the bright-stripe pixels are black".into()));
+        }
+        Ok(sensor::clip_level(cfg.camera_gamma) / level)
+    }
+
+    /// Which pixels are bright-stripe pixels under `projector_image` (see
+    /// [`View::exposure_for_clipping`]): lit, with the emission at the pixel centre's
+    /// projector pixel at least [`BRIGHT_STRIPE_LEVEL`] in some channel.
+    pub fn bright_stripe_mask(&self, projector_image: &Image<[u8; 3]>, cfg: &SimConfig) -> Vec<bool> {
+        let emission = Emission::new(projector_image, cfg);
+        self.truth
+            .projector
+            .pixels()
+            .iter()
+            .map(|p| {
+                !p[0].is_nan() && {
+                    let e = emission.at(DVec2::new(p[0] as f64, p[1] as f64));
+                    e.iter().any(|&x| x >= BRIGHT_STRIPE_LEVEL)
+                }
+            })
+            .collect()
+    }
 }
+
+/// Emitted light (fraction of full white) from which a projector pixel counts as a
+/// bright stripe in one channel: half of full white, between the patterns' high level
+/// (1) and their highest low level (0.45 for three directions, 0.46 after the
+/// projector's black level).
+pub const BRIGHT_STRIPE_LEVEL: f32 = 0.5;
 
 /// Camera rays (z = 1) through any point of the image. Pixel centres use
 /// `Intrinsics::ray` exactly; other points interpolate the centres' rays bilinearly
@@ -375,40 +615,24 @@ impl<'a> CameraRays<'a> {
     }
 }
 
-/// What a surface point sends to the camera.
-#[derive(Clone, Copy, Debug)]
-struct Shade {
-    /// Linear radiance, units of full projector white.
-    radiance: Rgb,
-    /// The projector pixel lighting it, when lit.
-    projector: Option<DVec2>,
-}
-
-/// The projector as a light source.
-struct Light<'a> {
+/// Where the projector is and which of its pixels reach a point: the geometric part
+/// of the projector as a light source.
+struct ProjectorGeometry<'a> {
     proj_from_cam: DMat3,
     proj_from_cam_t: DVec3,
     /// Projector centre in the camera frame, mm.
     centre: DVec3,
     intrinsics: &'a Intrinsics,
-    image: &'a Image<[u8; 3]>,
-    /// Emitted linear light of each 8-bit value.
-    lut: [f32; 256],
     /// Undistorted normalized coordinates that can reach the image (with a margin):
     /// guards against distortion polynomials folding far-off points back inside.
     normalized_bounds: (DVec2, DVec2),
-    ambient: f32,
     /// reference_distance², or 0 for no falloff.
     reference2: f64,
 }
 
-impl<'a> Light<'a> {
-    fn new(calib: &'a Calibration, image: &'a Image<[u8; 3]>, cfg: &SimConfig) -> Self {
+impl<'a> ProjectorGeometry<'a> {
+    fn new(calib: &'a Calibration, cfg: &SimConfig) -> Self {
         let p = &calib.projector;
-        let mut lut = [0f32; 256];
-        for (i, l) in lut.iter_mut().enumerate() {
-            *l = cfg.projector_black + (1.0 - cfg.projector_black) * (i as f32 / 255.0).powf(cfg.projector_gamma);
-        }
         // Undistort the image border to find the normalized region it covers.
         let (w, h) = (p.width as f64, p.height as f64);
         let (mut lo, mut hi) = (DVec2::splat(f64::INFINITY), DVec2::splat(f64::NEG_INFINITY));
@@ -423,15 +647,12 @@ impl<'a> Light<'a> {
             }
         }
         let margin = (hi - lo) * 0.1;
-        Light {
+        ProjectorGeometry {
             proj_from_cam: calib.proj_from_cam_rotation(),
             proj_from_cam_t: calib.proj_from_cam_translation(),
             centre: calib.projector_center_cam(),
             intrinsics: p,
-            image,
-            lut,
             normalized_bounds: (lo - margin, hi + margin),
-            ambient: cfg.ambient,
             reference2: (cfg.reference_distance as f64).powi(2),
         }
     }
@@ -454,34 +675,10 @@ impl<'a> Light<'a> {
         inside.then_some(px)
     }
 
-    /// Emitted linear light at projector pixel `px` (bilinear, clamped at the border).
-    fn emission(&self, px: DVec2) -> Rgb {
-        let (w, h) = self.image.size();
-        let x = px.x.max(0.0).min((w - 1) as f64);
-        let y = px.y.max(0.0).min((h - 1) as f64);
-        // Truncation is the floor here (x, y >= 0); i64 casts are cheaper than usize ones.
-        let (i0, j0) = (x as i64, y as i64);
-        let (fx, fy) = ((x - i0 as f64) as f32, (y - j0 as f64) as f32);
-        let (i0, j0) = (i0 as usize, j0 as usize);
-        let (i1, j1) = ((i0 + 1).min(w - 1), (j0 + 1).min(h - 1));
-        let (a, b) = (self.image.get(i0, j0), self.image.get(i1, j0));
-        let (c, d) = (self.image.get(i0, j1), self.image.get(i1, j1));
-        let mut out = [0f32; 3];
-        for k in 0..3 {
-            let l = |p: [u8; 3]| self.lut[p[k] as usize];
-            let top = l(a) + (l(b) - l(a)) * fx;
-            let bottom = l(c) + (l(d) - l(c)) * fx;
-            out[k] = top + (bottom - top) * fy;
-        }
-        out
-    }
-
-    fn shade(&self, scene: &Scene, hit: &Hit) -> Shade {
-        let ambient = hit.albedo.map(|a| a * self.ambient);
-        let unlit = Shade {
-            radiance: ambient,
-            projector: None,
-        };
+    /// What the camera ray that met `hit` needs to know about the projector: lit (in
+    /// the image, facing the projector, not in shadow) or not, and the shading factor.
+    fn sample(&self, scene: &Scene, hit: &Hit) -> Sample {
+        let unlit = Sample { albedo: hit.albedo, gain: 0.0, px: DVec2::NAN };
         let Some(px) = self.pixel_of(hit.point) else {
             return unlit;
         };
@@ -492,15 +689,49 @@ impl<'a> Light<'a> {
             return unlit;
         }
         let falloff = if self.reference2 > 0.0 { self.reference2 / r2 } else { 1.0 };
-        let gain = (cos * falloff) as f32;
-        let e = self.emission(px);
-        let mut radiance = ambient;
+        Sample { albedo: hit.albedo, gain: (cos * falloff) as f32, px }
+    }
+}
+
+/// The projector image as emitted light: every pixel's linear emission looked up
+/// once per frame, so that each ray's bilinear sample reads four floats per channel.
+struct Emission {
+    width: usize,
+    height: usize,
+    /// Emitted linear light per projector pixel, row by row.
+    light: Vec<Rgb>,
+}
+
+impl Emission {
+    fn new(image: &Image<[u8; 3]>, cfg: &SimConfig) -> Self {
+        let mut lut = [0f32; 256];
+        for (i, l) in lut.iter_mut().enumerate() {
+            *l = cfg.projector_black + (1.0 - cfg.projector_black) * (i as f32 / 255.0).powf(cfg.projector_gamma);
+        }
+        let (width, height) = image.size();
+        let light = image.pixels().iter().map(|p| p.map(|v| lut[v as usize])).collect();
+        Emission { width, height, light }
+    }
+
+    /// Emitted linear light at projector pixel `px` (bilinear, clamped at the border).
+    #[inline]
+    fn at(&self, px: DVec2) -> Rgb {
+        let (w, h) = (self.width, self.height);
+        let x = px.x.max(0.0).min((w - 1) as f64);
+        let y = px.y.max(0.0).min((h - 1) as f64);
+        // Truncation is the floor here (x, y >= 0); i64 casts are cheaper than usize ones.
+        let (i0, j0) = (x as i64, y as i64);
+        let (fx, fy) = ((x - i0 as f64) as f32, (y - j0 as f64) as f32);
+        let (i0, j0) = (i0 as usize, j0 as usize);
+        let (i1, j1) = ((i0 + 1).min(w - 1), (j0 + 1).min(h - 1));
+        let (a, b) = (self.light[j0 * w + i0], self.light[j0 * w + i1]);
+        let (c, d) = (self.light[j1 * w + i0], self.light[j1 * w + i1]);
+        let mut out = [0f32; 3];
         for k in 0..3 {
-            radiance[k] += hit.albedo[k] * e[k] * gain;
+            let top = a[k] + (b[k] - a[k]) * fx;
+            let bottom = c[k] + (d[k] - c[k]) * fx;
+            out[k] = top + (bottom - top) * fy;
         }
-        Shade {
-            radiance,
-            projector: Some(px),
-        }
+        out
     }
 }

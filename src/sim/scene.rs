@@ -1,10 +1,11 @@
 //! Scenes: textured analytic objects in the camera frame, and the built-in test scenes.
 
 use super::geometry::{HeightField, Shape};
-use super::texture::Texture;
+use super::pigments;
+use super::texture::{Texture, BLOTCH_DARK_LEVEL, BLOTCH_SATURATION, BLOTCH_VALUE};
 use crate::error::{Error, Result};
 use crate::raster::Rgb;
-use glam::{DMat3, DVec3};
+use glam::{DMat3, DVec2, DVec3};
 
 /// One object of a scene: a surface and how much light it reflects.
 #[derive(Clone, Debug)]
@@ -43,8 +44,25 @@ const PAPER_SEED: u64 = 0x9A9E_4C4A_3D1F_0001;
 const PAPER_SPACING_MM: f64 = 1.0;
 
 impl Scene {
-    /// Names accepted by [`Scene::builtin`].
-    pub const NAMES: &'static [&'static str] = &["plane", "sphere", "paper", "textured", "occluders"];
+    /// Names accepted by [`Scene::builtin`]: the original five, then the hard scenes
+    /// of real pigments and saturated dyes ([`Scene::HARD`]).
+    pub const NAMES: &'static [&'static str] = &[
+        "plane",
+        "sphere",
+        "paper",
+        "textured",
+        "occluders",
+        "colorchecker",
+        "sphere-dye",
+        "paper-dye",
+        "bag",
+        "skin",
+        "wood",
+        "wall",
+    ];
+
+    /// The scenes of real pigments and hard dyes (a subset of [`Scene::NAMES`]).
+    pub const HARD: &'static [&'static str] = &["colorchecker", "sphere-dye", "paper-dye", "bag", "skin", "wood", "wall"];
 
     /// A scene from objects; fails when a shape has non-finite or degenerate parameters.
     pub fn new(objects: Vec<Object>) -> Result<Self> {
@@ -75,6 +93,28 @@ impl Scene {
     /// - `occluders`: a horizontal bar, a vertical post and a diagonal bar at 650-750 mm
     ///   before a plane at 950 mm: depth edges in three directions, cast shadows, plain albedos.
     ///
+    /// The hard scenes, with real pigments ([`super::pigments`]) and dyes whose weak
+    /// channels reflect 1 %:
+    ///
+    /// - `colorchecker`: the 24 ColorChecker Classic pigments printed poster size (60 mm
+    ///   patches, 9 mm gaps, black card), 435 x 297 mm, bent around a vertical axis
+    ///   (radius 450 mm, its sides 50 mm further back) and tilted (25 degrees back at
+    ///   the top, turned 20 degrees, rolled 8), centred at 720 mm before a grey wall at
+    ///   950 mm;
+    /// - `sphere-dye`: the `sphere` with a checker of six pure dyes (red, green, blue,
+    ///   yellow, cyan, magenta, 1 % off-channel) before the grey wall;
+    /// - `paper-dye`: the crumpled `paper` in four pure dyes (cyan, blue, green, red);
+    /// - `bag`: a soft bag (a 440 x 360 mm pillow bulging 95 mm towards the camera from
+    ///   850 mm, with creases) in blotchy multi-hue dye (1 % off-channel) with
+    ///   near-black patches (2.5 %), before a light wall at 950 mm;
+    /// - `skin`: a head-sized sphere in light skin and a forearm-sized cylinder in dark
+    ///   skin before it (the ColorChecker's skin patches, mottled ±12 %), casting a
+    ///   shadow on it, before a wall at 950 mm;
+    /// - `wood`: a pine board (520 x 300 mm) leaning back 35 degrees and a plank before
+    ///   it, with growth rings of early and late wood, before a wall at 950 mm;
+    /// - `wall`: the inside corner of a white (82 %) and a grey (25 %) wall meeting at
+    ///   900 mm, each at 35 degrees to the image plane (about 650-900 mm).
+    ///
     /// Unknown names fail with [`Error::Scene`] listing the known ones.
     ///
     /// ```
@@ -89,6 +129,13 @@ impl Scene {
             "paper" => paper_scene(),
             "textured" => Ok(textured_scene()),
             "occluders" => Ok(occluders_scene()),
+            "colorchecker" => Ok(colorchecker_scene()),
+            "sphere-dye" => Ok(dye_sphere_scene()),
+            "paper-dye" => dye_paper_scene(),
+            "bag" => bag_scene(),
+            "skin" => Ok(skin_scene()),
+            "wood" => Ok(wood_scene()),
+            "wall" => Ok(wall_scene()),
             _ => Err(Error::Scene(format!(
                 "unknown scene {name:?}; known scenes: {}",
                 Scene::NAMES.join(", ")
@@ -291,7 +338,13 @@ fn textured_scene() -> Scene {
                     radius: 160.0,
                     half_length: 185.0,
                 },
-                texture: Texture::Blotchy { scale: 60.0, seed: 11 },
+                texture: Texture::Blotchy {
+                    scale: 60.0,
+                    seed: 11,
+                    saturation: BLOTCH_SATURATION,
+                    value: BLOTCH_VALUE,
+                    dark_level: BLOTCH_DARK_LEVEL,
+                },
             },
             Object {
                 shape: wall(950.0),
@@ -329,6 +382,192 @@ fn occluders_scene() -> Scene {
                 cuboid(DVec3::new(110.0, 95.0, 750.0), DVec3::new(190.0, 24.0, 24.0), 40.0),
                 [0.32, 0.46, 0.66],
             ),
+        ],
+    }
+}
+
+/// Rotation turning a sheet facing the camera: `yaw` degrees about the camera's y
+/// axis (its right side away), then `pitch` about x (its top away), then `roll` about
+/// its normal.
+fn orientation(yaw: f64, pitch: f64, roll_deg: f64) -> DMat3 {
+    DMat3::from_rotation_y(-yaw.to_radians()) * DMat3::from_rotation_x(pitch.to_radians()) * roll(roll_deg)
+}
+
+/// Side of a poster-size ColorChecker patch, mm (the Classic's are about 40 mm; 1.5
+/// times that makes the chart fill most of the frame at 720 mm).
+const CHART_PATCH_MM: f64 = 60.0;
+/// Gap between patches, and card border around them, mm (same 1.5 scale).
+const CHART_GAP_MM: f64 = 9.0;
+const CHART_BORDER_MM: f64 = 15.0;
+
+fn colorchecker_scene() -> Scene {
+    let pitch = CHART_PATCH_MM + CHART_GAP_MM;
+    let half = DVec2::new(
+        (6.0 * pitch - CHART_GAP_MM) / 2.0 + CHART_BORDER_MM,
+        (4.0 * pitch - CHART_GAP_MM) / 2.0 + CHART_BORDER_MM,
+    );
+    Scene {
+        objects: vec![
+            Object {
+                shape: Shape::BentSheet {
+                    center: DVec3::new(0.0, 0.0, 720.0),
+                    axes: orientation(20.0, 25.0, 8.0),
+                    curvature: 1.0 / 450.0,
+                    half_size: half,
+                },
+                texture: Texture::Chart {
+                    colours: pigments::colorchecker(),
+                    columns: 6,
+                    patch: CHART_PATCH_MM,
+                    gap: CHART_GAP_MM,
+                    background: pigments::colorchecker_frame(),
+                },
+            },
+            plain(wall(950.0), [0.5; 3]),
+        ],
+    }
+}
+
+fn dye_sphere_scene() -> Scene {
+    let radius = 150.0;
+    Scene {
+        objects: vec![
+            Object {
+                shape: Shape::Sphere {
+                    center: DVec3::new(0.0, 0.0, 800.0),
+                    radius,
+                },
+                // 22.5-degree squares; stride 2 keeps vertical neighbours different.
+                texture: Texture::Checker {
+                    colours: pigments::DYES.to_vec(),
+                    cell: radius * std::f64::consts::PI / 8.0,
+                    stride: 2,
+                },
+            },
+            plain(wall(950.0), [0.7; 3]),
+        ],
+    }
+}
+
+fn dye_paper_scene() -> Result<Scene> {
+    let sheet = HeightField::new(
+        (-260.0, 260.0),
+        (-200.0, 200.0),
+        PAPER_SPACING_MM,
+        750.0,
+        crumpled_paper(PAPER_SEED),
+    )?;
+    let d = pigments::DYES;
+    Ok(Scene {
+        objects: vec![
+            Object {
+                shape: Shape::HeightField(sheet),
+                // Cyan, blue, green, red clockwise from the top left, as `paper`.
+                texture: Texture::Quadrants([d[4], d[2], d[1], d[0]]),
+            },
+            plain(wall(900.0), [0.22, 0.2, 0.18]),
+        ],
+    })
+}
+
+/// Seed of the bag's creases.
+const BAG_SEED: u64 = 0xBA6_5EED;
+
+fn bag_scene() -> Result<Scene> {
+    let (a, b) = (220.0, 180.0);
+    let creases = crumpled_paper(BAG_SEED);
+    // A pillow: flat at the seams, 95 mm deep in the middle, steep near the seams.
+    let pillow = move |x: f64, y: f64| {
+        let profile = |u: f64| (1.0 - u.powi(4)).max(0.0).sqrt();
+        let bulge = profile(x / a) * profile(y / b);
+        -95.0 * bulge + 0.5 * creases(x, y) * bulge
+    };
+    let sheet = HeightField::new((-a, a), (-b, b), PAPER_SPACING_MM, 850.0, pillow)?;
+    let value = 0.72;
+    Ok(Scene {
+        objects: vec![
+            Object {
+                shape: Shape::HeightField(sheet),
+                texture: Texture::Blotchy {
+                    scale: 45.0,
+                    seed: 23,
+                    // The weakest channel value · (1 − saturation) is the dyes' 1 %.
+                    saturation: 1.0 - pigments::DYE_OFF as f64 / value,
+                    value,
+                    dark_level: pigments::NEAR_BLACK as f64 / value,
+                },
+            },
+            plain(wall(950.0), [0.6; 3]),
+        ],
+    })
+}
+
+/// Relative brightness variation of the skin scene's mottling.
+const SKIN_MOTTLE: f64 = 0.12;
+
+fn skin_scene() -> Scene {
+    let arm_axis = DVec3::new(0.92, 0.3, -0.25).normalize();
+    Scene {
+        objects: vec![
+            Object {
+                shape: Shape::Sphere {
+                    center: DVec3::new(-70.0, -30.0, 830.0),
+                    radius: 115.0,
+                },
+                texture: Texture::Mottled { base: pigments::light_skin(), amplitude: SKIN_MOTTLE, scale: 25.0, seed: 31 },
+            },
+            Object {
+                shape: Shape::Cylinder {
+                    center: DVec3::new(40.0, 95.0, 700.0),
+                    axis: arm_axis,
+                    radius: 42.0,
+                    half_length: 260.0,
+                },
+                texture: Texture::Mottled { base: pigments::dark_skin(), amplitude: SKIN_MOTTLE, scale: 20.0, seed: 37 },
+            },
+            plain(wall(950.0), [0.6; 3]),
+        ],
+    }
+}
+
+fn wood_scene() -> Scene {
+    let grain = |ring: f64, seed: u64| Texture::Wood { early: pigments::early_wood(), late: pigments::late_wood(), ring, seed };
+    Scene {
+        objects: vec![
+            Object {
+                shape: Shape::BentSheet {
+                    center: DVec3::new(20.0, 10.0, 800.0),
+                    axes: orientation(-15.0, 35.0, 0.0),
+                    curvature: 0.0,
+                    half_size: DVec2::new(260.0, 150.0),
+                },
+                texture: grain(9.0, 41),
+            },
+            Object {
+                // A plank, long along its first axis, standing at 70 degrees.
+                shape: Shape::Cuboid {
+                    center: DVec3::new(-150.0, 20.0, 680.0),
+                    axes: roll(70.0),
+                    half: DVec3::new(200.0, 30.0, 12.0),
+                },
+                texture: grain(6.0, 43),
+            },
+            plain(wall(950.0), [0.7; 3]),
+        ],
+    }
+}
+
+/// Angle of each wall of the `wall` scene to the image plane, degrees.
+const CORNER_ANGLE_DEG: f64 = 35.0;
+
+fn wall_scene() -> Scene {
+    let (s, c) = CORNER_ANGLE_DEG.to_radians().sin_cos();
+    let crease = DVec3::new(60.0, 0.0, 900.0);
+    // Seen from inside the corner the nearer of the two infinite planes is the wall.
+    Scene {
+        objects: vec![
+            plain(Shape::Plane { point: crease, normal: DVec3::new(s, 0.0, -c) }, [pigments::WHITE_WALL; 3]),
+            plain(Shape::Plane { point: crease, normal: DVec3::new(-s, 0.0, -c) }, [pigments::GREY_WALL; 3]),
         ],
     }
 }

@@ -1,8 +1,19 @@
 //! The camera after the lens: colour crosstalk, defocus blur, gain, sensor noise,
 //! gamma encoding and 8-bit quantization. All operations before the noise are linear,
-//! so their order among themselves does not matter.
+//! so their order among themselves does not matter. Then, optionally, what a webcam's
+//! encoder does to the 8-bit frame: 4:2:0 chroma subsampling and JPEG.
 
+use crate::error::{Error, Result};
 use crate::raster::{Image, Rgb};
+
+/// The 8-bit value of a clipped channel: the sensor's full scale.
+pub const CLIPPED: u8 = 255;
+
+/// The linear signal (after gain) from which a channel reads [`CLIPPED`]: the
+/// rounding bound of the top code, `(254.5 / 255)^gamma`.
+pub(crate) fn clip_level(gamma: f32) -> f32 {
+    ((CLIPPED as f32 - 0.5) / 255.0).powf(gamma)
+}
 
 /// A small, seedable, platform-independent generator (SplitMix64, Steele, Lea and
 /// Flood 2014): the same seed gives the same frame natively and in wasm, with no
@@ -105,6 +116,9 @@ pub(crate) fn gaussian_blur(img: &mut Image<Rgb>, sigma: f32, scratch: &mut Vec<
     }
 }
 
+/// Steps of the quantizer's look-up from linear value to the first candidate code.
+const QUANTIZE_BUCKETS: usize = 4096;
+
 /// Gain, additive Gaussian noise (in units of full scale), clipping to 0..1, encoding
 /// `x^(1/gamma)` and rounding to 8 bits.
 pub(crate) fn quantize(
@@ -121,6 +135,29 @@ pub(crate) fn quantize(
     for (c, b) in bounds.iter_mut().enumerate() {
         *b = ((c as f32 + 0.5) / 255.0).powf(gamma);
     }
+    // The count of bounds below each of QUANTIZE_BUCKETS equal steps of 0..1, so that
+    // a value's count starts from its step's and walks the few bounds inside the step
+    // (the same codes as a search over all bounds, in a fraction of the time).
+    let mut start = [0u8; QUANTIZE_BUCKETS + 1];
+    for (k, s) in start.iter_mut().enumerate() {
+        let x = k as f32 / QUANTIZE_BUCKETS as f32;
+        *s = bounds.partition_point(|&b| b < x) as u8;
+    }
+    let code = |x: f32| -> u8 {
+        if !(x > 0.0) {
+            // Negative, zero (no bound is below) or NaN (no bound compares below it).
+            return 0;
+        }
+        if x >= 1.0 {
+            return 255;
+        }
+        // Truncation is the floor for 0 < x < 1.
+        let mut c = start[(x * QUANTIZE_BUCKETS as f32) as usize] as usize;
+        while c < bounds.len() && bounds[c] < x {
+            c += 1;
+        }
+        c as u8
+    };
     let mut rng = SplitMix64::new(seed);
     let mut spare: Option<f64> = None;
     let mut noise = || -> f32 {
@@ -140,7 +177,90 @@ pub(crate) fn quantize(
     for (o, p) in out.pixels_mut().iter_mut().zip(linear.pixels()) {
         for c in 0..3 {
             let x = exposure * p[c] + noise();
-            o[c] = bounds.partition_point(|&b| b < x) as u8;
+            o[c] = code(x);
         }
     }
+}
+
+/// JFIF's full-range BT.601 YCbCr (ITU-T T.871), the transform JPEG files use.
+fn to_ycbcr(p: [u8; 3]) -> [f32; 3] {
+    let [r, g, b] = p.map(|x| x as f32);
+    [
+        0.299 * r + 0.587 * g + 0.114 * b,
+        128.0 - 0.168_736 * r - 0.331_264 * g + 0.5 * b,
+        128.0 + 0.5 * r - 0.418_688 * g - 0.081_312 * b,
+    ]
+}
+
+/// The inverse of [`to_ycbcr`], rounded and clamped to 8 bits.
+fn from_ycbcr(y: f32, cb: f32, cr: f32) -> [u8; 3] {
+    let (cb, cr) = (cb - 128.0, cr - 128.0);
+    let rgb = [y + 1.402 * cr, y - 0.344_136 * cb - 0.714_136 * cr, y + 1.772 * cb];
+    rgb.map(|x| x.round().clamp(0.0, 255.0) as u8)
+}
+
+/// 4:2:0 chroma subsampling of an 8-bit (gamma-encoded) frame, in place: every pixel
+/// keeps its own luma (JFIF YCbCr), and the chroma of each 2 x 2 block (a 2 x 1, 1 x 2
+/// or single pixel at an odd border) is replaced by the block's mean, as a webcam's
+/// YUV 4:2:0 or MJPEG stream carries it, then converted back to RGB (chroma
+/// replicated over the block, no interpolation). Colour detail finer than two pixels
+/// is lost; a one-pixel colour line spreads over its block.
+///
+/// ```
+/// use stripelight::{sim, Image};
+/// let mut img = Image::new(4, 2, [128u8, 128, 128]);
+/// *img.get_mut(1, 0) = [255, 0, 0];
+/// sim::chroma_420(&mut img);
+/// let (left, right) = (img.get(0, 0), img.get(1, 0));
+/// assert!(left[0] > left[1] + 20);   // the red reached its neighbour
+/// assert!(right[0] < 255);           // and is diluted where it was
+/// assert_eq!(img.get(2, 0), [128, 128, 128]);
+/// ```
+pub fn chroma_420(img: &mut Image<[u8; 3]>) {
+    let (w, h) = img.size();
+    for by in (0..h).step_by(2) {
+        for bx in (0..w).step_by(2) {
+            let (x1, y1) = ((bx + 2).min(w), (by + 2).min(h));
+            let (mut cb, mut cr, mut n) = (0f32, 0f32, 0f32);
+            for y in by..y1 {
+                for x in bx..x1 {
+                    let [_, b, r] = to_ycbcr(img.get(x, y));
+                    cb += b;
+                    cr += r;
+                    n += 1.0;
+                }
+            }
+            let (cb, cr) = (cb / n, cr / n);
+            for y in by..y1 {
+                for x in bx..x1 {
+                    let luma = to_ycbcr(img.get(x, y))[0];
+                    *img.get_mut(x, y) = from_ycbcr(luma, cb, cr);
+                }
+            }
+        }
+    }
+}
+
+/// The frame after a JPEG encoder of `quality` (1-100, libjpeg's scaling of the
+/// standard quantization tables; the `image` crate's baseline encoder, which keeps
+/// chroma at full resolution: subsample with [`chroma_420`] first for a webcam's
+/// 4:2:0) and a decoder. Fails with [`Error::Scene`] when the codec does.
+pub fn jpeg_round_trip(img: &Image<[u8; 3]>, quality: u8) -> Result<Image<[u8; 3]>> {
+    let (w, h) = img.size();
+    let flat: Vec<u8> = img.pixels().iter().flatten().copied().collect();
+    let mut bytes = Vec::new();
+    image::codecs::jpeg::JpegEncoder::new_with_quality(&mut bytes, quality.clamp(1, 100))
+        .encode(&flat, w as u32, h as u32, image::ExtendedColorType::Rgb8)
+        .map_err(|e| Error::Scene(format!("JPEG encoding of a {w}x{h} frame failed: {e}")))?;
+    let decoded = image::load_from_memory_with_format(&bytes, image::ImageFormat::Jpeg)
+        .map_err(|e| Error::Scene(format!("JPEG decoding failed: {e}")))?
+        .into_rgb8();
+    if (decoded.width() as usize, decoded.height() as usize) != (w, h) {
+        return Err(Error::Scene(format!(
+            "JPEG round trip changed the size from {w}x{h} to {}x{}",
+            decoded.width(),
+            decoded.height()
+        )));
+    }
+    Image::from_vec(w, h, decoded.pixels().map(|p| p.0).collect())
 }

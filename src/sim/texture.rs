@@ -1,8 +1,9 @@
 //! Surface albedo textures, laid out in a shape's surface coordinates (mm).
 //!
 //! Albedos are linear diffuse reflectances per channel in 0..=1 (1 reflects all the
-//! light of that channel). Saturated colours are kept a little above zero in their
-//! weak channels, as printed and dyed surfaces are.
+//! light of that channel). Saturated colours are kept above zero in their weak
+//! channels, as printed and dyed surfaces are: a few percent for the original scenes,
+//! down to 1 % for the hard ones ([`super::pigments`]).
 
 use crate::raster::Rgb;
 use glam::DVec2;
@@ -28,25 +29,74 @@ pub enum Texture {
     Quadrants([Rgb; 4]),
     /// Smooth multi-hue blotches with dark patches, like dyed or printed leather:
     /// two octaves of value noise set the hue (which wanders over the whole colour
-    /// circle), a second noise field darkens about a fifth of the surface to a sixth
-    /// of its brightness with soft edges.
+    /// circle), a second noise field darkens about a fifth of the surface to
+    /// `dark_level` of its brightness with soft edges. Colours are HSV in linear
+    /// light: the weakest channel is `value · (1 − saturation)`.
     Blotchy {
         /// Size of the blotches, mm.
         scale: f64,
         /// Seed of the noise lattice.
         seed: u64,
+        /// HSV saturation of the colours ([`BLOTCH_SATURATION`] for the textured
+        /// scene).
+        saturation: f64,
+        /// HSV value away from the dark patches ([`BLOTCH_VALUE`]).
+        value: f64,
+        /// Brightness left in the dark patches, as a fraction ([`BLOTCH_DARK_LEVEL`]).
+        dark_level: f64,
+    },
+    /// A chart of square patches (a ColorChecker): `colours` row by row, `columns` to
+    /// a row, each `patch` mm wide with `gap` mm between them, the whole grid centred
+    /// on the surface-coordinate origin (s to the right, t down); everything else
+    /// (the gaps, the border) is `background`.
+    Chart {
+        /// Patch colours, row by row.
+        colours: Vec<Rgb>,
+        /// Patches per row.
+        columns: usize,
+        /// Side of a patch, mm.
+        patch: f64,
+        /// Gap between patches, mm.
+        gap: f64,
+        /// The card around the patches.
+        background: Rgb,
+    },
+    /// One colour whose brightness varies by up to ±`amplitude` (a fraction) in soft
+    /// blotches of about `scale` mm (two octaves of value noise): skin, plaster.
+    Mottled {
+        /// The mean colour.
+        base: Rgb,
+        /// Largest relative change of brightness.
+        amplitude: f64,
+        /// Size of the blotches, mm.
+        scale: f64,
+        /// Seed of the noise lattice.
+        seed: u64,
+    },
+    /// Wood grain: bands of `early` and `late` wood running along s, one growth ring
+    /// every `ring` mm across (along t), the bands wandering by about a ring's width.
+    /// About a third of each ring is late wood, with soft edges.
+    Wood {
+        /// The light wood of each ring.
+        early: Rgb,
+        /// The dark wood of each ring.
+        late: Rgb,
+        /// Width of a growth ring, mm.
+        ring: f64,
+        /// Seed of the noise lattice.
+        seed: u64,
     },
 }
 
-/// Saturation of the blotchy texture's colours.
-const BLOTCH_SATURATION: f64 = 0.7;
-/// Brightness (HSV value) of the blotchy texture away from its dark patches.
-const BLOTCH_VALUE: f64 = 0.72;
+/// Saturation of the textured scene's blotchy colours.
+pub const BLOTCH_SATURATION: f64 = 0.7;
+/// Brightness (HSV value) of the textured scene's blotches away from their dark patches.
+pub const BLOTCH_VALUE: f64 = 0.72;
 /// Noise level above which the blotchy texture turns dark, and the width of the soft edge.
 const BLOTCH_DARK_FROM: f64 = 0.58;
 const BLOTCH_DARK_EDGE: f64 = 0.07;
-/// Brightness left in the dark patches.
-const BLOTCH_DARK_LEVEL: f64 = 0.16;
+/// Brightness left in the textured scene's dark patches.
+pub const BLOTCH_DARK_LEVEL: f64 = 0.16;
 
 impl Texture {
     /// The albedo at surface coordinates `st` (mm).
@@ -69,7 +119,7 @@ impl Texture {
                 (true, true) => c[2],
                 (false, true) => c[3],
             },
-            Texture::Blotchy { scale, seed } => {
+            Texture::Blotchy { scale, seed, saturation, value, dark_level } => {
                 let p = st / scale.max(1e-9);
                 // Each octave on its own rotated, shifted lattice so that no lattice
                 // direction shows in the blotches' outlines.
@@ -82,11 +132,48 @@ impl Texture {
                 let dark_noise = 0.6 * octave(p * 0.8, 0.5, DVec2::new(-41.7, 23.9), seed.wrapping_add(0x5EED))
                     + 0.4 * octave(p * 1.7, 1.3, DVec2::new(8.2, -61.4), seed.wrapping_add(0x5EEE));
                 let dark = smoothstep(BLOTCH_DARK_FROM, BLOTCH_DARK_FROM + BLOTCH_DARK_EDGE, dark_noise);
-                let value = BLOTCH_VALUE * (1.0 - (1.0 - BLOTCH_DARK_LEVEL) * dark);
+                let brightness = value * (1.0 - (1.0 - dark_level) * dark);
                 // Value noise clusters around 0.5; two turns of the colour circle over
                 // its range make every hue common.
                 let hue = (2.0 * hue_noise + 0.15).fract();
-                hsv_to_rgb(hue, BLOTCH_SATURATION, value)
+                hsv_to_rgb(hue, *saturation, brightness)
+            }
+            Texture::Chart { colours, columns, patch, gap, background } => {
+                let n = colours.len();
+                if n == 0 || *columns == 0 || !(*patch > 0.0) || !(*gap >= 0.0) {
+                    return *background;
+                }
+                let rows = n.div_ceil(*columns);
+                let pitch = patch + gap;
+                // Grid origin at the top-left corner of the first patch.
+                let x = st.x + (*columns as f64 * pitch - gap) / 2.0;
+                let y = st.y + (rows as f64 * pitch - gap) / 2.0;
+                let (i, j) = (floor_i64(x / pitch), floor_i64(y / pitch));
+                let inside = i >= 0
+                    && j >= 0
+                    && (i as usize) < *columns
+                    && (j as usize) < rows
+                    && x - i as f64 * pitch < *patch
+                    && y - j as f64 * pitch < *patch;
+                match inside.then(|| j as usize * columns + i as usize) {
+                    Some(k) if k < n => colours[k],
+                    _ => *background,
+                }
+            }
+            Texture::Mottled { base, amplitude, scale, seed } => {
+                let p = st / scale.max(1e-9);
+                let noise = 0.65 * value_noise(p, *seed) + 0.35 * value_noise(p * 2.3 + DVec2::new(7.1, -3.3), seed ^ 1);
+                let factor = (1.0 + amplitude * (2.0 * noise - 1.0)) as f32;
+                base.map(|c| (c * factor).clamp(0.0, 1.0))
+            }
+            Texture::Wood { early, late, ring, seed } => {
+                let ring = ring.max(1e-9);
+                // The bands wander across by up to about a ring over 150 mm along them.
+                let warp = 1.6 * ring * (value_noise(DVec2::new(st.x / 150.0, st.y / (8.0 * ring)), *seed) - 0.5);
+                let phase = (st.y + warp) / ring;
+                let r = phase - floor_i64(phase) as f64;
+                let f = (smoothstep(0.55, 0.68, r) * (1.0 - smoothstep(0.9, 1.0, r))) as f32;
+                std::array::from_fn(|k| early[k] + (late[k] - early[k]) * f)
             }
         }
     }
@@ -168,7 +255,13 @@ mod tests {
 
     #[test]
     fn blotches_cover_many_hues_and_have_dark_patches() {
-        let tex = Texture::Blotchy { scale: 40.0, seed: 7 };
+        let tex = Texture::Blotchy {
+            scale: 40.0,
+            seed: 7,
+            saturation: BLOTCH_SATURATION,
+            value: BLOTCH_VALUE,
+            dark_level: BLOTCH_DARK_LEVEL,
+        };
         let mut dark = 0;
         let mut dominant = [0usize; 3];
         let n = 100;

@@ -3,12 +3,24 @@
 //!
 //! - **coverage**: decoded lit pixels / lit pixels;
 //! - **outliers**: decoded pixels whose depth is off the true depth by more than
-//!   [`outlier_threshold`] (max(2 mm, 0.5 % of depth)), as a fraction of decoded pixels;
+//!   [`outlier_threshold`] (max(2 mm, 0.5 % of depth)), or where no projector light
+//!   reaches any part of the pixel ([`Frame::lit_share`] 0: no surface, outside the
+//!   projector's image, facing away or in shadow; any depth there is invented), as a
+//!   fraction of decoded pixels. A pixel lit over part of its area (on the edge of the
+//!   light or of a shadow) is judged by its depth like a lit one;
 //! - **RMSE** of the other decoded pixels, mm;
 //! - **edge coverage**: coverage among lit pixels within [`EDGE_BAND`] pixels of a true
 //!   depth discontinuity (neighbouring pixels more than [`DISCONTINUITY_MM`] apart).
+//!
+//! [`hard`] runs the hard evaluation of issue 10 (real pigments, saturated dyes,
+//! partial projector light, clipping, webcam compression, stripe widths and frame
+//! sizes), each scan beside a multi-shot Gray-code reference ([`graycode`]) rendered
+//! through the same simulator.
 
-use crate::calib::Calibration;
+pub mod graycode;
+pub mod hard;
+
+use crate::calib::{Calibration, Crosstalk};
 use crate::error::Result;
 use crate::pattern::{PatternSpec, DEFAULT_STRIPE_WIDTH};
 use crate::raster::Image;
@@ -102,7 +114,9 @@ pub fn measure(depth: &Image<f32>, truth: &Frame) -> Metrics {
         decoded_lit += is_lit as usize;
         edge_decoded += band[i] as usize;
         let err = z - t;
-        if t.is_nan() || err.abs() > outlier_threshold(t) {
+        // A depth where no projector light falls is invented, however close it is.
+        let dark = !is_lit && truth.lit_share.pixels()[i] == 0.0;
+        if dark || t.is_nan() || err.abs() > outlier_threshold(t) {
             outliers += 1;
         } else {
             sq += (err as f64).powi(2);
@@ -136,13 +150,27 @@ pub struct Row {
     pub families: Vec<Metrics>,
 }
 
-/// Render `scene` with a `directions` pattern on `calib` and scan it with `filter`.
+/// Render `scene` with a `directions` pattern on `calib` and scan it with `filter`,
+/// telling the scanner the simulator's own colour mixing.
 pub fn evaluate(scene_name: &str, directions: usize, filter: FilterMode, calib: &Calibration, seed: u64) -> Result<Row> {
+    evaluate_with(scene_name, directions, filter, calib, seed, SimConfig::default().crosstalk)
+}
+
+/// [`evaluate`] with the colour mixing the scanner is told (measured, for instance,
+/// with [`hard::measured_crosstalk`]).
+pub fn evaluate_with(
+    scene_name: &str,
+    directions: usize,
+    filter: FilterMode,
+    calib: &Calibration,
+    seed: u64,
+    crosstalk: Crosstalk,
+) -> Result<Row> {
     let spec = PatternSpec::generate(directions, calib.projector.width, calib.projector.height, DEFAULT_STRIPE_WIDTH)?;
     let scene = Scene::builtin(scene_name)?;
     let cfg = SimConfig { seed, projector_gamma: spec.encoding_gamma as f32, ..SimConfig::default() };
     let truth = sim::render(&scene, calib, &spec.render_rgb8(), &cfg)?;
-    let mut scanner = Scanner::new(spec, calib.clone(), ScanConfig { filter, crosstalk: cfg.crosstalk, ..ScanConfig::default() })?;
+    let mut scanner = Scanner::new(spec, calib.clone(), ScanConfig { filter, crosstalk, ..ScanConfig::default() })?;
     let result = scanner.scan(&truth.image)?;
     Ok(Row {
         scene: scene_name.to_string(),
