@@ -13,7 +13,7 @@ use std::path::{Path, PathBuf};
 pub fn decode_rgb8(bytes: &[u8]) -> Result<Image<[u8; 3]>> {
     let reader = image::ImageReader::new(Cursor::new(bytes))
         .with_guessed_format()
-        .map_err(|e| Error::ImageDecode(e.to_string()))?;
+        .map_err(|e| Error::ImageDecode(one_line(e)))?;
     if reader.format().is_none() {
         return Err(Error::ImageDecode(
             "unknown format (PNG and JPEG are supported)".into(),
@@ -21,11 +21,16 @@ pub fn decode_rgb8(bytes: &[u8]) -> Result<Image<[u8; 3]>> {
     }
     let img = reader
         .decode()
-        .map_err(|e| Error::ImageDecode(e.to_string()))?
+        .map_err(|e| Error::ImageDecode(one_line(e)))?
         .into_rgb8();
     let (w, h) = (img.width() as usize, img.height() as usize);
     let data = img.pixels().map(|p| p.0).collect();
     Image::from_vec(w, h, data)
+}
+
+/// A decoder's message as one line: some end in a newline or hold several lines.
+fn one_line(message: impl std::fmt::Display) -> String {
+    message.to_string().split_whitespace().collect::<Vec<_>>().join(" ")
 }
 
 /// Read a PNG or JPEG file to 8-bit RGB.
@@ -111,6 +116,22 @@ pub fn encode_pfm(img: &Image<f32>) -> Vec<u8> {
     out
 }
 
+/// Encode a three-channel float image as little-endian colour PFM (`PF`, scale -1.0,
+/// rows bottom-to-top, channels interleaved per pixel).
+pub fn encode_pfm_rgb(img: &Image<[f32; 3]>) -> Vec<u8> {
+    let (w, h) = img.size();
+    let mut out = format!("PF\n{w} {h}\n-1.0\n").into_bytes();
+    out.reserve(w * h * 12);
+    for v in (0..h).rev() {
+        for px in img.row(v) {
+            for x in px {
+                out.extend_from_slice(&x.to_le_bytes());
+            }
+        }
+    }
+    out
+}
+
 /// Decode a grayscale PFM (`Pf`) of either byte order into top-to-bottom rows.
 pub fn decode_pfm(bytes: &[u8]) -> Result<Image<f32>> {
     let bad = |m: &str| Error::ImageDecode(format!("PFM: {m}"));
@@ -137,11 +158,17 @@ pub fn decode_pfm(bytes: &[u8]) -> Result<Image<f32>> {
     let w: usize = tokens[1].parse().map_err(|_| bad("width is not a number"))?;
     let h: usize = tokens[2].parse().map_err(|_| bad("height is not a number"))?;
     let scale: f32 = tokens[3].parse().map_err(|_| bad("scale is not a number"))?;
-    if w == 0 || h == 0 || scale == 0.0 || !scale.is_finite() {
-        return Err(bad("size or scale is zero"));
+    if w == 0 || h == 0 {
+        return Err(bad(&format!("size {w}x{h} is empty")));
+    }
+    if scale == 0.0 || !scale.is_finite() {
+        return Err(bad(&format!("scale {scale} is not a finite non-zero number")));
     }
     let need = w.checked_mul(h).and_then(|n| n.checked_mul(4)).ok_or_else(|| bad("size overflows"))?;
-    let body = bytes.get(pos..pos + need).ok_or_else(|| bad("data is shorter than the header says"))?;
+    let body = pos
+        .checked_add(need)
+        .and_then(|end| bytes.get(pos..end))
+        .ok_or_else(|| bad("data is shorter than the header says"))?;
     let little = scale < 0.0;
     let mut img = Image::new(w, h, 0f32);
     for (i, c) in body.chunks_exact(4).enumerate() {

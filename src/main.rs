@@ -69,6 +69,11 @@ mod cli {
             /// Depth map out (PFM, Z in mm, NaN where none).
             #[arg(long)]
             depth: Option<PathBuf>,
+            /// Correspondences out (colour PFM: channel k = family k's projector
+            /// coordinate along its normal, the spec's `s`, in projector pixels; NaN
+            /// where none or where the pattern has no family k).
+            #[arg(long)]
+            correspondence: Option<PathBuf>,
             /// Point cloud out (PLY).
             #[arg(long)]
             ply: Option<PathBuf>,
@@ -85,7 +90,8 @@ mod cli {
         },
         /// Render built-in scenes, scan them and print the accuracy table (Markdown).
         Eval {
-            /// Scenes to evaluate (default: all built-in scenes).
+            /// Scenes to evaluate (default: the original five; with --hard, all
+            /// built-in scenes).
             #[arg(long, value_delimiter = ',')]
             scenes: Vec<String>,
             /// Numbers of directions (default 1,2,3).
@@ -97,6 +103,15 @@ mod cli {
             /// Noise seed of the simulator.
             #[arg(long, default_value_t = 1)]
             seed: u64,
+            /// The hard evaluation instead (issue 10): every scene under every
+            /// condition, two directions, loggrad, measured colour mixing, beside a
+            /// Gray-code reference; prints the whole of docs/accuracy.md.
+            #[arg(long)]
+            hard: bool,
+            /// With --hard: the conditions (default all: default, partial, clipped,
+            /// webcam, narrow, wide, 8mp, world).
+            #[arg(long, value_delimiter = ',')]
+            conditions: Vec<String>,
         },
         /// Measure the camera's colour mixing (for `scan --crosstalk`) from frames of a
         /// white card under the projector's full red, green, blue and black.
@@ -117,8 +132,12 @@ mod cli {
             #[arg(long, default_value_t = 2.2)]
             camera_gamma: f32,
         },
-        /// Write a calibration file.
+        /// Write a calibration file: the demo rig (--default, --distorted), or one
+        /// imported from another tool (`calib import`).
+        #[command(args_conflicts_with_subcommands = true, subcommand_negates_reqs = true)]
         Calib {
+            #[command(subcommand)]
+            action: Option<CalibAction>,
             /// The demo rig (VGA camera, XGA projector, 200 mm diagonal baseline).
             #[arg(long)]
             default: bool,
@@ -126,13 +145,14 @@ mod cli {
             #[arg(long)]
             distorted: bool,
             /// The calibration (JSON).
-            #[arg(long)]
-            out: PathBuf,
+            #[arg(long, required = true)]
+            out: Option<PathBuf>,
         },
         /// Simulate the camera frame of a built-in scene lit by a pattern, with its
         /// ground-truth depth.
         Render {
-            /// plane, sphere, paper, textured or occluders.
+            /// A built-in scene: plane, sphere, paper, textured, occluders, colorchecker,
+            /// sphere-dye, paper-dye, bag, skin, wood or wall.
             #[arg(long)]
             scene: String,
             /// The pattern spec (JSON) the projector shows.
@@ -150,6 +170,37 @@ mod cli {
             /// Seed of the sensor noise.
             #[arg(long, default_value_t = 0)]
             seed: u64,
+        },
+    }
+
+    #[derive(Subcommand)]
+    enum CalibAction {
+        /// Convert a calibration from OpenCV or Bouguet's MATLAB toolbox into the
+        /// project's calibration JSON.
+        ///
+        /// Reads OpenCV FileStorage YAML or JSON (cam_K/cam_kc/proj_K/proj_kc,
+        /// cameraMatrix1/distCoeffs1/cameraMatrix2/distCoeffs2, M1/D1/M2/D2, K1/D1/K2/D2
+        /// with R or om, T and image sizes) and Bouguet's MATLAB stereo text (fc_left,
+        /// cc_left, kc_left, alpha_c_left, the same _right, om, T), recognised from the
+        /// content. The camera is the first device (cameraMatrix1, left), the projector
+        /// the second (right); R, T map camera to projector coordinates, X_p = R X_c + T,
+        /// as cv::stereoCalibrate returns them. T must be in mm, or give --unit-scale.
+        Import {
+            /// The calibration to read.
+            #[arg(long)]
+            from: PathBuf,
+            /// The project's calibration (JSON) to write.
+            #[arg(long)]
+            out: PathBuf,
+            /// Camera image size WxH, when the file gives none.
+            #[arg(long, value_name = "WxH")]
+            camera_size: Option<String>,
+            /// Projector size WxH, when the file gives none.
+            #[arg(long, value_name = "WxH")]
+            projector_size: Option<String>,
+            /// Millimetres per unit of the file's T (1000 when T is in metres).
+            #[arg(long, default_value_t = 1.0)]
+            unit_scale: f64,
         },
     }
 
@@ -212,7 +263,7 @@ mod cli {
                 );
                 Ok(())
             }
-            Command::Scan { spec, calib, image, filter, camera_gamma, depth, ply, ascii, debug, crosstalk } => {
+            Command::Scan { spec, calib, image, filter, camera_gamma, depth, correspondence, ply, ascii, debug, crosstalk } => {
                 let spec = load_spec(&spec)?;
                 let calib = load_calib(&calib)?;
                 let filter: FilterMode = filter.parse()?;
@@ -241,6 +292,9 @@ mod cli {
                 if let Some(path) = depth {
                     io::write_file(&path, &io::encode_pfm(&result.depth))?;
                 }
+                if let Some(path) = correspondence {
+                    io::write_file(&path, &io::encode_pfm_rgb(&result.correspondence))?;
+                }
                 if let Some(path) = ply {
                     io::write_file(&path, &stripelight::cloud::encode_ply(&result.cloud, ascii))?;
                 }
@@ -252,9 +306,30 @@ mod cli {
                 }
                 Ok(())
             }
-            Command::Eval { scenes, directions, filters, seed } => {
+            Command::Eval { scenes, directions, filters, seed, hard, conditions } => {
+                use stripelight::eval::hard as h;
+                use stripelight::sim::Scene;
+                if hard {
+                    let mut options = h::ReportOptions { seed, ..h::ReportOptions::default() };
+                    if !scenes.is_empty() {
+                        for s in &scenes {
+                            Scene::builtin(s)?;
+                        }
+                        options.scenes = scenes;
+                        options.restrict_heavy = false;
+                    }
+                    if !conditions.is_empty() {
+                        options.conditions = conditions.iter().map(|c| h::condition(c)).collect::<Result<Vec<_>>>()?;
+                    }
+                    let report = h::report(&options, &mut |line| eprintln!("{line}"))?;
+                    print!("{report}");
+                    return Ok(());
+                }
+                if !conditions.is_empty() {
+                    return Err(Error::Setting { name: "conditions", problem: "needs --hard".into() });
+                }
                 let scenes: Vec<String> = if scenes.is_empty() {
-                    stripelight::sim::Scene::NAMES.iter().map(|s| s.to_string()).collect()
+                    Scene::NAMES.iter().filter(|s| !Scene::HARD.contains(s)).map(|s| s.to_string()).collect()
                 } else {
                     scenes
                 };
@@ -279,10 +354,25 @@ mod cli {
                 println!("{}", values.join(","));
                 Ok(())
             }
-            Command::Calib { default, distorted, out } => {
+            Command::Calib { action: Some(CalibAction::Import { from, out, camera_size, projector_size, unit_scale }), .. } => {
+                use stripelight::calib::import;
+                let options = import::ImportOptions {
+                    camera_size: camera_size.map(|s| import::parse_size("camera-size", &s)).transpose()?,
+                    projector_size: projector_size.map(|s| import::parse_size("projector-size", &s)).transpose()?,
+                    unit_scale,
+                };
+                let imported = import::from_text(&read_text(&from)?, &options).map_err(|e| prefix(&from, e))?;
+                io::write_file(&out, imported.calibration.to_json().as_bytes())?;
+                eprintln!("{}: {}", out.display(), imported.summary());
+                Ok(())
+            }
+            Command::Calib { action: None, default, distorted, out } => {
                 if !default && !distorted {
                     return Err(Error::Setting { name: "calib", problem: "needs --default or --distorted".into() });
                 }
+                let Some(out) = out else {
+                    return Err(Error::Setting { name: "out", problem: "is needed".into() });
+                };
                 let calib = if distorted { Calibration::demo_distorted() } else { Calibration::demo() };
                 io::write_file(&out, calib.to_json().as_bytes())
             }
