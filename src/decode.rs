@@ -49,7 +49,7 @@ pub const MAX_EXTRA_SPAN: usize = 4;
 pub const MAX_PROPAGATION_CODES: u32 = 1;
 
 /// Agreeing boundaries on the neighbouring lines an identity needs to be kept.
-pub const MIN_LINE_SUPPORT: usize = 1;
+pub const MIN_LINE_SUPPORT: usize = 2;
 
 /// The identification tables of one stripe family.
 pub struct Decoder {

@@ -239,6 +239,11 @@ pub fn log_plane_into(img: &Image<Rgb>, channel: usize, dst: &mut [f32]) {
     }
 }
 
+/// Longest box [`smooth_along_stripes`] takes, pixels: stripes of other families that
+/// repeat more slowly than this along a family's stripes are few per box anyway, and the
+/// cost grows with the length (an odd rig once asked for thousands of pixels).
+pub const MAX_SMOOTH_LENGTH: f32 = 32.0;
+
 /// Average each channel of `restored` along its family's stripes (perpendicular to
 /// `restored.dominant`) over `length` pixels, through `tmp`.
 ///
@@ -256,9 +261,10 @@ pub fn log_plane_into(img: &Image<Rgb>, channel: usize, dst: &mut [f32]) {
 /// to its border.
 pub fn smooth_along_stripes(restored: &mut Restored, length: f32, tmp: &mut Vec<f32>) {
     let (w, h) = (restored.width, restored.height);
-    if w == 0 || h == 0 {
+    if w == 0 || h == 0 || !length.is_finite() {
         return;
     }
+    let length = length.min(MAX_SMOOTH_LENGTH);
     let (sin, cos) = restored.dominant.sin_cos();
     let (dx, dy) = (-sin, cos);
     let along_v = dy.abs() >= dx.abs();
