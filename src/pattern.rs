@@ -234,16 +234,19 @@ impl PatternSpec {
                 problem: format!("{width}x{height} is not in 1..=16384 on each side"),
             });
         }
-        if !(stripe_width.is_finite() && stripe_width >= 2.0) {
+        // Wider than the largest projector would be one stripe anywhere.
+        if !(stripe_width.is_finite() && (2.0..=16384.0).contains(&stripe_width)) {
             return Err(Error::Setting {
                 name: "stripe width",
-                problem: format!("must be at least 2 pixels, got {stripe_width}"),
+                problem: format!("must be 2 to 16384 pixels, got {stripe_width}"),
             });
         }
         let mut families = Vec::new();
         for &angle in angles {
             let (lo, hi) = Family::extent(angle, width, height);
-            let count = ((hi - lo) / stripe_width).ceil() as usize;
+            // At least a window's worth of stripes (3, the smallest window), so that a
+            // projector narrower than three stripes still gets a decodable pattern.
+            let count = (((hi - lo) / stripe_width).ceil() as usize).max(3);
             // Centre the stripes on the image so both ends are cut alike.
             let origin = (lo + hi) / 2.0 - count as f64 * stripe_width / 2.0;
             families.push(Family {
@@ -261,7 +264,7 @@ impl PatternSpec {
                 problem: format!("{needed} stripes are more than any window of up to 8 makes unique"),
             })?;
         let low = [0.25, 0.35, 0.45][directions - 1];
-        Ok(PatternSpec {
+        let spec = PatternSpec {
             format: SPEC_FORMAT.into(),
             version: SPEC_VERSION,
             width,
@@ -271,7 +274,10 @@ impl PatternSpec {
             sequence,
             window,
             families,
-        })
+        };
+        // What is generated must read back; if not, the generator is wrong, not the input.
+        spec.validate().map_err(|e| Error::Internal(format!("the generated pattern is invalid: {e}")))?;
+        Ok(spec)
     }
 
     /// Parse and validate a spec file. Errors name the offending field.
@@ -345,8 +351,10 @@ impl PatternSpec {
             if !f.angle_deg.is_finite() {
                 return Err(err(&field("angle_deg"), "must be finite".into()));
             }
-            if !(f.stripe_width.is_finite() && f.stripe_width >= 2.0) {
-                return Err(err(&field("stripe_width"), format!("must be at least 2 pixels, got {}", f.stripe_width)));
+            // Wider than the largest projector is absurd, and `count · stripe_width` below
+            // could overflow to infinity and pass any coverage check.
+            if !(f.stripe_width.is_finite() && (2.0..=16384.0).contains(&f.stripe_width)) {
+                return Err(err(&field("stripe_width"), format!("must be 2 to 16384 pixels, got {}", f.stripe_width)));
             }
             if !f.origin.is_finite() {
                 return Err(err(&field("origin"), "must be finite".into()));
