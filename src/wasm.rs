@@ -322,6 +322,13 @@ impl WasmScanner {
         Float32Array::from(self.inner.result().depth.pixels())
     }
 
+    /// The correspondences of the last scan: per camera pixel (row-major), three values,
+    /// value k = family k's projector coordinate along its normal (the spec's `s`,
+    /// projector pixels); NaN where none or where the pattern has no family k.
+    pub fn correspondence(&self) -> Float32Array {
+        Float32Array::from(self.inner.result().correspondence.pixels().as_flattened())
+    }
+
     /// The intermediate images of the last scan (empty before the first).
     pub fn stages(&self) -> Vec<StageImage> {
         self.inner
@@ -351,6 +358,19 @@ pub fn encode_ply_js(
 pub fn encode_pfm_js(depth: &[f32], width: u32, height: u32) -> Result<Vec<u8>, JsError> {
     let img = Image::from_vec(width as usize, height as usize, depth.to_vec()).map_err(js_error)?;
     Ok(io::encode_pfm(&img))
+}
+
+/// Encode correspondences (row-major, three values per pixel, as
+/// `Scanner.correspondence` gives them) as a colour PFM (`PF`) per `conventions.md`.
+#[wasm_bindgen(js_name = encodePfmRgb)]
+pub fn encode_pfm_rgb_js(values: &[f32], width: u32, height: u32) -> Result<Vec<u8>, JsError> {
+    let (w, h) = (width as usize, height as usize);
+    if values.len() != w * h * 3 {
+        return Err(js_error(Error::BufferLength { size: (w, h), per_pixel: 3, got: values.len() }));
+    }
+    let pixels = values.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
+    let img = Image::from_vec(w, h, pixels).map_err(js_error)?;
+    Ok(io::encode_pfm_rgb(&img))
 }
 
 /// Panics on purpose, so that the page's recovery from a panicking worker can be

@@ -1,5 +1,6 @@
-// Export: the current frame's merged cloud as PLY and its depth map as PFM (formats as in
-// conventions.md: mm, camera frame), encoded by a worker and saved as downloads.
+// Export: the current frame's merged cloud as PLY, its depth map as PFM and its
+// correspondences (each family's projector coordinate per pixel) as colour PFM (formats
+// as in conventions.md: mm, camera frame), encoded by a worker and saved as downloads.
 
 import { $, state, bridge, showMessage, download } from './page.js';
 
@@ -26,8 +27,17 @@ async function exportDepth() {
   download(bytes, `stripelight-${baseName()}-depth.pfm`, 'application/octet-stream');
 }
 
-/** Bind the two export buttons. */
+async function exportCorrespondence() {
+  const r = state.current?.result;
+  if (!r) return showMessage('Nothing to export yet: scan a frame first.', 'error');
+  const values = r.correspondence.slice();
+  const bytes = await bridge.request('encodePfmRgb', { values, width: r.width, height: r.height }, [values.buffer]);
+  download(bytes, `stripelight-${baseName()}-correspondence.pfm`, 'application/octet-stream');
+}
+
+/** Bind the export buttons. */
 export function bindExportButtons() {
+  $('export-corr').onclick = () => exportCorrespondence().catch((e) => showMessage(e.message, 'error'));
   $('export-ply').onclick = () => exportPly().catch((e) => showMessage(e.message, 'error'));
   $('export-pfm').onclick = () => exportDepth().catch((e) => showMessage(e.message, 'error'));
 }

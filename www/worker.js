@@ -125,10 +125,12 @@ const handlers = {
     const families = [];
     for (let k = 0; k < scanner.familyCount; k++) families.push(scanner.cloud(k));
     const depth = scanner.depth();
+    const correspondence = scanner.correspondence();
     const value = {
       merged,
       families,
       depth,
+      correspondence,
       width: scanner.width,
       height: scanner.height,
       stats,
@@ -136,7 +138,7 @@ const handlers = {
       stages: stages ? stagesOf(scanner) : [],
     };
     const transfer = [merged, ...families].flatMap(buffersOf);
-    transfer.push(depth.buffer, ...value.stages.map((s) => s.rgba.buffer));
+    transfer.push(depth.buffer, correspondence.buffer, ...value.stages.map((s) => s.rgba.buffer));
     return { value, transfer };
   },
   parseCrosstalk({ text }) {
@@ -144,6 +146,10 @@ const handlers = {
   },
   encodePly({ positions, colors, pixels, families, ascii }) {
     const bytes = wasm.encodePly(positions, colors, pixels, families, Boolean(ascii));
+    return { value: bytes, transfer: [bytes.buffer] };
+  },
+  encodePfmRgb({ values, width, height }) {
+    const bytes = wasm.encodePfmRgb(values, width, height);
     return { value: bytes, transfer: [bytes.buffer] };
   },
   encodePfm({ depth, width, height }) {

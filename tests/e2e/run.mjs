@@ -8,7 +8,7 @@
 //      wrong-size image give clear messages;
 //   4. a denied camera and a blocked projector pop-up give messages;
 //   5. screenshots of the viewer with a cloud and of the teaching view, in tests/screenshots/;
-//   6. the PLY and PFM exports follow conventions.md;
+//   6. the PLY, PFM and correspondence exports follow conventions.md;
 //   7. the projector window shows the decoder's pattern pixel for pixel;
 //   8. a panic in a worker is reported and the page keeps working;
 //   9. the guided colour calibration asks for the projector and refuses frames without
@@ -474,7 +474,24 @@ async function main() {
     const pfmBytes = readFileSync(await pfm.path());
     assert(pfmBytes.subarray(0, 14).toString('latin1') === 'Pf\n640 480\n-1.0\n'.slice(0, 14), 'PFM header');
     assert(pfmBytes.length === 'Pf\n640 480\n-1.0\n'.length + 640 * 480 * 4, `PFM of ${pfmBytes.length} bytes`);
-    return `${ply.suggestedFilename()} (${plyBytes.length} bytes), ${pfm.suggestedFilename()} (${pfmBytes.length} bytes)`;
+    const [corr] = await Promise.all([page.waitForEvent('download'), page.click('#export-corr')]);
+    const corrBytes = readFileSync(await corr.path());
+    const corrHeader = 'PF\n640 480\n-1.0\n';
+    assert(corrBytes.subarray(0, corrHeader.length).toString('latin1') === corrHeader, 'correspondence PFM header');
+    assert(corrBytes.length === corrHeader.length + 640 * 480 * 12, `correspondence PFM of ${corrBytes.length} bytes`);
+    // Two families: the third channel is NaN everywhere, the first is a projector
+    // coordinate (|s| within the 1024-pixel projector) where it is a number.
+    const values = new Float32Array(corrBytes.buffer.slice(corrBytes.byteOffset + corrHeader.length, corrBytes.byteOffset + corrBytes.length));
+    let decoded = 0;
+    for (let i = 0; i < values.length; i += 3) {
+      assert(Number.isNaN(values[i + 2]), `pixel ${i / 3} has a third family`);
+      if (!Number.isNaN(values[i])) {
+        assert(Math.abs(values[i]) < 640, `s = ${values[i]} is off the projector`);
+        decoded++;
+      }
+    }
+    assert(decoded > 0.5 * count, `${decoded} pixels with a family-0 correspondence for ${count} points`);
+    return `${ply.suggestedFilename()} (${plyBytes.length} bytes), ${pfm.suggestedFilename()} (${pfmBytes.length} bytes), ${corr.suggestedFilename()} (${decoded} family-0 correspondences)`;
   });
 
   await check('7 the projector window shows the decoder\'s pattern 1:1', async () => {
