@@ -26,8 +26,10 @@
 //! | `scan_any_size` | the same, frames 8x8 to 1920x1080 (browser: 640x480) | 16 (browser: 4) |
 //! | `scan_4k` | the same at 3840x2160 (native only) | 2 |
 //!
-//! Natively the whole file takes about 30 s in a debug build, most of it the two 4K
-//! cases; the scanner's memory per pixel is `tests/alloc_bounds.rs`'s business.
+//! Natively the file takes about 20 s of CPU in a debug build, plus 10 to 30 s per 4K
+//! case (three families cost the most) and about 25 s for the 4K case of
+//! `scanner_cases_that_once_failed`. In the browser it takes about 6 s. The scanner's
+//! memory per pixel is `tests/alloc_bounds.rs`'s business.
 
 #[macro_use]
 mod support;
@@ -1139,7 +1141,7 @@ fn scan_small(spec: PatternSpec, calib: Calibration, seed: u64) -> Result<&'stat
 }
 
 /// The scanner at 4K (3840x2160): any pattern, rig, filter and content. Native only:
-/// two cases take about 20 s in a debug build (and 2 GB).
+/// each case takes 10 to 30 s in a debug build, and about 2 GB.
 #[cfg(not(target_arch = "wasm32"))]
 #[test]
 fn scanner_on_4k_frames() {

@@ -275,33 +275,46 @@ pub fn smooth_along_stripes(restored: &mut Restored, length: f32, tmp: &mut Vec<
     let end_weight = ((steps - (2 * inner + 1) as f32) / 2.0).clamp(0.0, 1.0);
     let total = (2 * inner + 1) as f32 + 2.0 * end_weight;
     // In the frame (a, b): b runs along the main axis (`nb` long), a across (`na`).
+    // The sample of row offset t lies `slope·t` across: whole pixels `shift` plus a
+    // fraction `frac` to interpolate, the same for every pixel, so each row offset adds
+    // a shifted, interpolated copy of one source line to the output line.
     let (na, nb) = if along_v { (w, h) } else { (h, w) };
-    tmp.resize(w * h, 0.0);
+    let taps: Vec<(isize, isize, f32, f32)> = (-(inner + 1)..=inner + 1)
+        .filter_map(|t| {
+            let weight = if t.unsigned_abs() as isize <= inner { 1.0 } else { end_weight };
+            let offset = slope * t as f32;
+            let shift = offset.floor();
+            (weight > 0.0).then_some((t, shift as isize, offset - shift, weight / total))
+        })
+        .collect();
+    tmp.resize(w * h + 2 * na, 0.0);
+    let (src, lines) = tmp.split_at_mut(w * h);
+    let (line, acc) = lines.split_at_mut(na);
     for plane in restored.log.iter_mut() {
-        tmp.copy_from_slice(plane);
-        let src = &tmp[..];
-        let sample = |a: f32, b: isize| -> f32 {
-            let b = b.clamp(0, nb as isize - 1) as usize;
-            let a = a.clamp(0.0, (na - 1) as f32);
-            let a0 = a as usize;
-            let a1 = (a0 + 1).min(na - 1);
-            let f = a - a0 as f32;
-            let (i0, i1) = if along_v { (b * w + a0, b * w + a1) } else { (a0 * w + b, a1 * w + b) };
-            src[i0] + (src[i1] - src[i0]) * f
-        };
+        src.copy_from_slice(plane);
         for b in 0..nb {
-            for a in 0..na {
-                let (af, bi) = (a as f32, b as isize);
-                let mut sum = 0.0;
-                for t in -inner..=inner {
-                    sum += sample(af + slope * t as f32, bi + t);
+            acc.iter_mut().for_each(|x| *x = 0.0);
+            for &(t, shift, frac, weight) in &taps {
+                let bb = (b as isize + t).clamp(0, nb as isize - 1) as usize;
+                for (a, x) in line.iter_mut().enumerate() {
+                    *x = if along_v { src[bb * w + a] } else { src[a * w + bb] };
                 }
-                if end_weight > 0.0 {
-                    let t = inner + 1;
-                    sum += end_weight * (sample(af + slope * t as f32, bi + t) + sample(af - slope * t as f32, bi - t));
+                // Interior: both interpolation taps inside the line; edges: clamped.
+                let lo = (-shift).clamp(0, na as isize) as usize;
+                let hi = (na as isize - 1 - shift).clamp(lo as isize, na as isize) as usize;
+                let (w0, w1) = (weight * (1.0 - frac), weight * frac);
+                for a in lo..hi {
+                    let j = (a as isize + shift) as usize;
+                    acc[a] += w0 * line[j] + w1 * line[j + 1];
                 }
+                for a in (0..lo).chain(hi..na) {
+                    let j = |k: isize| line[(a as isize + shift + k).clamp(0, na as isize - 1) as usize];
+                    acc[a] += w0 * j(0) + w1 * j(1);
+                }
+            }
+            for (a, &x) in acc.iter().enumerate() {
                 let i = if along_v { b * w + a } else { a * w + b };
-                plane[i] = sum / total;
+                plane[i] = x;
             }
         }
     }
