@@ -90,7 +90,8 @@ pub struct Condition {
 impl Condition {
     const BASE: Condition = Condition {
         name: "default",
-        summary: "the simulator's defaults: VGA camera, whole frame lit, no clipping, lossless frames, 10-pixel stripes (about 6.5 camera pixels)",
+        summary: "the simulator's defaults: VGA camera, whole frame lit, no clipping, lossless frames, \
+                  10-pixel stripes (about 6.5 camera pixels)",
         camera_scale: 1.0,
         stripe_width: DEFAULT_STRIPE_WIDTH,
         partial_projector: false,
@@ -109,7 +110,8 @@ pub const CONDITIONS: &[Condition] = &[
     Condition::BASE,
     Condition {
         name: "partial",
-        summary: "the projector lights about 60 % of the frame (longer throw, aimed off-centre); the rest is lit by the room only",
+        summary: "the projector lights about 60 % of the frame (longer throw, aimed off-centre); \
+                  the rest is lit by the room only",
         partial_projector: true,
         ..Condition::BASE
     },
@@ -500,7 +502,8 @@ fn pct(x: f64) -> String {
 /// The hard table as Markdown.
 pub fn hard_markdown(rows: &[HardRow]) -> String {
     let mut s = String::from(
-        "| scene | condition | stripe px | lit | clipped | coverage | object cov. | outliers | RMSE mm | edge cov. | Gray coverage | Gray object cov. | Gray outliers | Gray RMSE mm | ratio | goal |\n\
+        "| scene | condition | stripe px | lit | clipped | coverage | object cov. | outliers | RMSE mm | edge cov. \
+         | Gray coverage | Gray object cov. | Gray outliers | Gray RMSE mm | ratio | goal |\n\
          |---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n",
     );
     for r in rows {
@@ -519,7 +522,7 @@ pub fn hard_markdown(rows: &[HardRow]) -> String {
             pct(r.subject_coverage.0),
             100.0 * r.one_shot.outliers,
             r.one_shot.rmse_mm,
-            pct(r.one_shot.edge_coverage),
+            if r.one_shot.edge_lit == 0 { "–".to_string() } else { pct(r.one_shot.edge_coverage) },
             pct(r.gray.coverage),
             pct(r.subject_coverage.1),
             100.0 * r.gray.outliers,
@@ -583,7 +586,7 @@ at all.
   the light or of a shadow) is judged by its depth;
 - **RMSE**: of the decoded pixels that are not outliers, mm;
 - **edge cov.**: coverage of lit pixels within 8 px of a true depth discontinuity
-  (neighbours more than 20 mm apart);
+  (neighbours more than 20 mm apart; – where the scene has none);
 - **stripe px**: median width of the vertical stripes in camera pixels (from the ground
   truth); **lit**: lit pixels / all pixels; **clipped**: bright-stripe pixels (where the
   projector emits at least half of full white in some channel) that read 255 in at least
@@ -634,7 +637,13 @@ pub fn report(options: &ReportOptions, progress: &mut dyn FnMut(&str)) -> Result
         "\nThe simulated camera's true mixing is {:.2} on the diagonal and {:.2} off it.\n",
         sim_xt[0][0], sim_xt[0][1]
     );
-    out.push_str("Scenes: `Scene::builtin` in `src/sim/scene.rs` describes each; the hard ones are `colorchecker` (the 24 ColorChecker Classic pigments, bent and tilted), `sphere-dye`, `paper-dye` and `bag` (dyes with 1 % off-channel reflectance, the bag with near-black patches), `skin`, `wood` and `wall` (white and grey).\n\n## One-shot scan and Gray-code reference\n\n");
+    out.push_str(
+        "Scenes: `Scene::builtin` in `src/sim/scene.rs` describes each; the hard ones are \
+         `colorchecker` (the 24 ColorChecker Classic pigments, bent and tilted), `sphere-dye`, \
+         `paper-dye` and `bag` (dyes with 1 % off-channel reflectance, the bag with near-black \
+         patches), `skin`, `wood` and `wall` (white and grey).\n\n\
+         ## One-shot scan and Gray-code reference\n\n",
+    );
 
     let mut rows = Vec::new();
     let mut patches = None;
@@ -666,8 +675,12 @@ pub fn report(options: &ReportOptions, progress: &mut dyn FnMut(&str)) -> Result
         .filter(|r| r.coverage_ratio() < coverage_goal(&r.scene).1 || r.one_shot.outliers > OUTLIER_GOAL)
         .map(|r| format!("{} / {}", r.scene, r.condition))
         .collect();
-    let _ = writeln!(out, "\n{} of {} rows meet issue 10's coverage and outlier goals (the last column).", rows.len() - missed.len(), rows.len());
-    out.push_str("\n| condition | goals met | one-shot coverage / Gray's, median | outliers, median | RMSE over 0.5 mm |\n|---|---|---|---|---|\n");
+    let met_rows = rows.len() - missed.len();
+    let _ = writeln!(out, "\n{met_rows} of {} rows meet issue 10's coverage and outlier goals (the last column).", rows.len());
+    out.push_str(
+        "\n| condition | goals met | one-shot coverage / Gray's, median | outliers, median | RMSE over 0.5 mm |\n\
+         |---|---|---|---|---|\n",
+    );
     for cond in &options.conditions {
         let of: Vec<&HardRow> = rows.iter().filter(|r| r.condition == cond.name).collect();
         if of.is_empty() {
@@ -692,9 +705,15 @@ pub fn report(options: &ReportOptions, progress: &mut dyn FnMut(&str)) -> Result
     }
 
     if let Some(p) = patches {
-        out.push_str("\n## ColorChecker, patch by patch (default condition)\n\n| patch | lit px | coverage | Gray coverage |\n|---|---|---|---|\n");
+        out.push_str(
+            "\n## ColorChecker, patch by patch (default condition)\n\n\
+             | patch | lit px | coverage | Gray coverage |\n|---|---|---|---|\n",
+        );
         for (k, (n, a, b)) in p.iter().enumerate() {
-            let name = pigments::COLORCHECKER_SRGB.get(k).map_or("the black card around the patches".to_string(), |c| format!("{} {}", k + 1, c.0));
+            let name = match pigments::COLORCHECKER_SRGB.get(k) {
+                Some((patch, _)) => format!("{} {patch}", k + 1),
+                None => "the black card around the patches".to_string(),
+            };
             let _ = writeln!(out, "| {name} | {n} | {} | {} |", pct(*a), pct(*b));
         }
     }

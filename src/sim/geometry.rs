@@ -778,7 +778,9 @@ impl Shape {
                     // Less than half a turn each way, so that (s, t) is unique.
                     && curvature.abs() * half_size.x < std::f64::consts::PI;
                 if !ok {
-                    return bad("a bent sheet needs a finite centre, orthonormal axes, a positive size and less than a full turn of bend");
+                    return bad(
+                        "a bent sheet needs a finite centre, orthonormal axes, a positive size and under half a turn each way",
+                    );
                 }
             }
         }
