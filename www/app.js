@@ -5,6 +5,7 @@
 //   page.js               shared state, the workers' bridge, status line, messages, helpers
 //   panel-pattern.js      1 pattern: directions, spec, thumbnail
 //   panel-camera.js       2 camera: webcam, capture, continuous scanning
+//   live.js               continuous scanning's frame scheduling (latest wins) and figures
 //   panel-frames.js       frames list and scanning: drops, simulated scenes, current frame
 //   panel-calibration.js  3 calibration: rig, calibration files, colour mixing
 //   panel-results.js      viewer, depth map, teaching view (draws only)
@@ -13,12 +14,14 @@
 //   panel-export.js       PLY and PFM downloads
 //   projector-link.js     the projector window
 //   camera.js             the webcam (getUserMedia), its exposure meter and frame grabs
-//   bridge.js, worker.js  the decoding workers and their message protocol
+//   bridge.js, worker.js  the decoding workers and their message protocol (worker-scan.js:
+//                         the worker's scanners and what a scan reply carries)
 //   frame-size.js         the largest frame the page decodes, read from image headers
 //
 // Modules import only "downwards" in this order: page, projector-link, pattern, results,
-// calibration, frames, camera (export and results need page only). Where a module must
-// reach one above it, it takes a callback, and this file passes it in.
+// calibration, frames, camera (results needs page only, export page and frames; live.js
+// and camera.js know no other module). Where a module must reach one above it, it takes
+// a callback, and this file passes it in.
 
 import { state, bridge, busy, setStatus, showMessage } from './page.js';
 import { bindProjectorLink } from './projector-link.js';
@@ -44,7 +47,12 @@ function bindPanels() {
   bindCameraPanel();
   bindFramesPanel();
   bindCalibrationPanel({ camera, onMixingChanged: () => refreshCurrent() });
-  bindResultsPanel({ onFilterChanged: () => refreshCurrent({ rescan: true }), onRecompute: redecodeCurrent });
+  bindResultsPanel({
+    onFilterChanged: () => refreshCurrent({ rescan: true }),
+    onRecompute: redecodeCurrent,
+    // Only a live frame comes without family clouds; shown again, it is decoded in full.
+    onFamiliesWanted: () => state.current?.result?.families || refreshCurrent(),
+  });
   bindExportButtons();
 }
 

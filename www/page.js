@@ -37,6 +37,7 @@ export const state = {
   current: null,
   // panel-camera.js
   continuous: false,
+  live: null, // figures of the latest run of continuous scanning (live.js)
   // projector-link.js
   projectorWindow: null,
   // busy() below

@@ -1,13 +1,16 @@
 // Panel 2, the camera: choosing and starting a webcam, its exposure meter and sliders,
-// capturing one frame to scan, and continuous scanning, where the two workers decode
-// alternate video frames. A camera that ends (unplugged, taken by another program) stops
-// scanning with a message; one that changes resolution is followed by an approximate rig,
-// while a loaded calibration, made for one size, stops continuous scanning with a message.
+// capturing one frame to scan, and continuous scanning, where each free worker takes the
+// newest video frame, with its figures (frames per second, latency, dropped frames). A
+// camera that ends (unplugged, taken by another program) stops scanning with a message;
+// one that changes resolution is followed by an approximate rig, while a loaded
+// calibration, made for one size, stops continuous scanning with a message.
 
 import { $, state, WORKERS, busy, setStatus, showMessage } from './page.js';
 import { Camera, describeCameraError } from './camera.js';
 import { followDeviceSize } from './panel-calibration.js';
 import { addFrame, scanEntry, scanLive, showLiveResult, summary } from './panel-frames.js';
+import { viewer, familyLayersShown } from './panel-results.js';
+import { LiveScan, describeFigures } from './live.js';
 
 /** The webcam, its preview and its exposure meter. */
 export const camera = new Camera($('camera-video'), $('exposure-canvas'), showMeter, cameraEnded);
@@ -153,21 +156,22 @@ async function captureOnce() {
 }
 
 /**
- * Continuous scanning: each new video frame goes to a worker when one is free, so with
- * two workers consecutive frames alternate between them and two are in flight; a result
- * older than the one on screen is dropped. When the frames change size, no frame is sent
- * until the calibration has followed (or scanning stops, see followCamera).
+ * Continuous scanning (scheduling and figures: live.js): the newest video frame goes to a
+ * worker as soon as one is free, older waiting frames are dropped. When the frames change
+ * size, none is sent until the calibration has followed (or scanning stops, see
+ * followCamera). A live frame's reply holds its figures and the merged cloud, plus the
+ * family clouds while a family layer is ticked; the rest is decoded again on request.
  */
-let continuousRun = 0;
+let live = null;
 function setContinuous(on) {
   state.continuous = on;
   $('continuous').checked = on;
-  const run = ++continuousRun; // a loop from an earlier switch-on stops at its next frame
+  live?.stop(); // results of the earlier run still coming are not shown
+  live = null;
   if (!on) return;
-  const started = performance.now();
-  let sent = 0, shown = 0, inFlight = 0, done = 0, following = false;
+  let following = false, shown = 0, lastSummary = '';
   const stop = (text) => {
-    if (run !== continuousRun) return;
+    if (live !== run) return;
     setContinuous(false);
     showMessage(`Continuous scanning stopped: ${text}`, 'error');
     setStatus('continuous scanning stopped');
@@ -188,36 +192,36 @@ function setContinuous(on) {
       .catch((e) => stop(e.message))
       .finally(() => (following = false));
   };
-  const nextFrame = () => {
-    if ('requestVideoFrameCallback' in HTMLVideoElement.prototype) camera.video.requestVideoFrameCallback(tick);
-    else requestAnimationFrame(tick);
-  };
-  const tick = () => {
-    if (run !== continuousRun || !camera.running) return;
-    nextFrame();
-    if (inFlight >= WORKERS || following) return;
+  const grab = () => {
+    if (following || !camera.running) return null;
     let frame;
     try {
       frame = camera.capture();
     } catch {
-      return;
+      return null;
     }
-    if (!fitsCalibration(frame)) return follow(frame);
-    const seq = ++sent;
-    inFlight++;
-    scanLive(frame)
-      .then((result) => {
-        done++;
-        if (seq <= shown || run !== continuousRun) return;
-        shown = seq;
-        const live = showLiveResult(frame, result, { keepView: shown > 1 });
-        const fps = (1000 * done) / (performance.now() - started);
-        setStatus(`scanning continuously: ${fps.toFixed(1)} frames/s · ${summary(live)}`);
-      })
-      .catch((e) => stop(e.message))
-      .finally(() => inFlight--);
+    if (fitsCalibration(frame)) return frame;
+    follow(frame);
+    return null;
   };
-  tick();
+  const run = new LiveScan({
+    video: camera.video,
+    workers: WORKERS,
+    grab,
+    decode: (frame) => scanLive(frame, { families: familyLayersShown() }),
+    show: (frame, result) => {
+      lastSummary = summary(showLiveResult(frame, result, { keepView: shown++ > 0 }));
+    },
+    viewerMs: () => viewer?.frameMs ?? 0,
+    report: (figures) => {
+      $('live-figures').textContent = describeFigures(figures);
+      setStatus(`scanning continuously: ${figures.recent.fps.toFixed(1)} frames/s · ${lastSummary}`);
+    },
+    fail: (e) => stop(e.message),
+  });
+  live = run;
+  $('live-figures').textContent = 'waiting for the first cloud…';
+  state.live = run.start();
 }
 
 /** Bind the panel's buttons. */

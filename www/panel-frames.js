@@ -58,11 +58,12 @@ function renderFrameItem(entry) {
 }
 
 /**
- * Scan a frame entry with the current spec, calibration and filter, show it, and (unless
- * scanning continuously) fetch the teaching stages with it.
+ * Scan a frame entry with the current spec, calibration and filter, and show it: its
+ * clouds, its depth map and (unless scanning continuously) the teaching stages. The
+ * correspondences are not sent: an export decodes them again (completeResult).
  */
 export async function scanEntry(entry, { keepView = false } = {}) {
-  const stages = !state.continuous;
+  const want = state.continuous ? ['families', 'depth'] : ['families', 'depth', 'stages'];
   const { frame } = entry;
   const c = state.calib;
   entry.error = '';
@@ -77,17 +78,11 @@ export async function scanEntry(entry, { keepView = false } = {}) {
   }
   if (!checkSpecMatchesCalibration()) throw new Error('the pattern spec does not match the calibration');
   renderFrameItem(entry);
-  const rgba = frame.rgba.slice();
+  const settings = scanSettings(entry.kind);
   try {
-    entry.result = await bridge.request(
-      'scan',
-      { ...scanSettings(entry.kind), width: frame.width, height: frame.height, rgba, stages },
-      [rgba.buffer],
-      { onProgress: state.continuous ? undefined : setStatus },
-    );
+    entry.result = await scanWith(settings, frame, want, state.continuous ? undefined : setStatus);
     entry.filter = state.filter;
     entry.crosstalk = crosstalkFor(entry.kind);
-    entry.result.stagesRequested = stages;
   } catch (e) {
     entry.error = `${entry.name}: ${e.message}`;
     entry.result = null;
@@ -99,18 +94,43 @@ export async function scanEntry(entry, { keepView = false } = {}) {
   return entry.result;
 }
 
-/** Scan one frame of continuous scanning (no stages); resolves to the worker's result. */
-export async function scanLive(frame) {
+/**
+ * Scan one frame of continuous scanning; resolves to the worker's result: its figures and
+ * merged cloud, and the family clouds if `families`.
+ */
+export async function scanLive(frame, { families = false } = {}) {
   const c = state.calib;
   if (frame.width !== c.camera.width || frame.height !== c.camera.height) {
     throw new Error(`the camera gives ${frame.width}x${frame.height} but the calibration’s camera is ${c.camera.width}x${c.camera.height}`);
   }
-  const rgba = frame.rgba.slice();
-  return bridge.request(
-    'scan',
-    { ...scanSettings('live'), width: frame.width, height: frame.height, rgba, stages: false },
-    [rgba.buffer],
+  return scanWith(scanSettings('live'), frame, families ? ['families'] : []);
+}
+
+/**
+ * The result of `entry` with every one of `wants` (worker-scan.js's optional results) in
+ * it. Those it lacks are decoded again from its frame with the settings it was made with
+ * (decoding is deterministic: the same cloud comes back, which is checked) and added.
+ */
+export async function completeResult(entry, wants) {
+  const r = entry.result;
+  const missing = wants.filter((w) => !(w in r));
+  if (!missing.length) return r;
+  const more = await busy(`decoding ${entry.name} again for its ${missing.join(' and ')}`, () =>
+    scanWith(r.settings, entry.frame, missing),
   );
+  const [was, now] = [r.merged.families.length, more.merged.families.length];
+  if (was !== now) throw new Error(`${entry.name} decoded to ${now} points this time, ${was} before: scan it again first`);
+  for (const w of missing) r[w] = more[w];
+  return r;
+}
+
+/** Scan `frame` with `settings` (scanSettings), asking for `want`; the result keeps the settings. */
+async function scanWith(settings, frame, want, onProgress) {
+  const rgba = frame.rgba.slice(); // transferred: the entry keeps its pixels
+  const payload = { ...settings, width: frame.width, height: frame.height, rgba, want };
+  const result = await bridge.request('scan', payload, [rgba.buffer], { onProgress });
+  result.settings = settings;
+  return result;
 }
 
 /** Put a continuous-scanning result in the list's live entry and show it; returns the entry. */
@@ -132,15 +152,12 @@ function showEntry(entry, { keepView = false, rescan = false } = {}) {
   for (const f of state.frames) {
     f.item.classList.toggle('current', f === entry);
     // Stages are a dozen full-size images: only the current frame keeps them.
-    if (f !== entry && f.result?.stages.length) {
-      f.result.stages = [];
-      f.result.stagesRequested = false;
-    }
+    if (f !== entry && f.result) delete f.result.stages;
   }
   showInput(entry.frame, entry.name);
   const stale =
     entry.result &&
-    (entry.filter !== state.filter || entry.crosstalk !== crosstalkFor(entry.kind) || !entry.result.stagesRequested);
+    (entry.filter !== state.filter || entry.crosstalk !== crosstalkFor(entry.kind) || !entry.result.stages);
   if (rescan || (stale && !state.continuous)) {
     busy(`decoding ${entry.name}`, () => scanEntry(entry, { keepView }))
       .then(() => setStatus(summary(entry)))

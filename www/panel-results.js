@@ -37,7 +37,14 @@ export function showResult(r, { name, text, keepView }) {
   showCloud(r, keepView);
   drawDepth($('depth-canvas'), r);
   setPointCount(r.merged.families.length, text);
-  if (r.stagesRequested) drawStages(r.stages, name);
+  if (r.stages) drawStages(r.stages, name);
+  else if (!state.continuous || $('stages').childElementCount) showNoStages(name);
+}
+
+/** The stages of `name` were not decoded (continuous scanning skips them). */
+function showNoStages(name) {
+  $('stages').replaceChildren();
+  $('stages-note').textContent = `Continuous scanning skips the stages: click ${name} in the frames list to decode them.`;
 }
 
 /** Show that frame `name` has no result; `text` says why. */
@@ -55,22 +62,31 @@ function setPointCount(n, text) {
   $('scan-stats').textContent = text;
 }
 
-/** The merged cloud and one cloud per family, each shown as its layer toggle says. */
+/**
+ * The merged cloud and one cloud per family, each shown as its layer toggle says. Live
+ * results carry family clouds only while a family layer is ticked: until one comes, an
+ * empty cloud stands in.
+ */
 function showCloud(r, keepView) {
   if (!viewer) return;
-  const toggles = ensureLayerToggles(r.families.length);
-  const clouds = [
-    { positions: r.merged.positions, colors: r.merged.colors, families: r.merged.families, visible: toggles[0].checked },
-    ...r.families.map((f, k) => ({
-      positions: f.positions,
-      colors: f.colors,
-      families: null,
-      familyMask: 1 << k,
-      visible: toggles[k + 1].checked,
-    })),
-  ];
+  const toggles = ensureLayerToggles(r.familyCount);
+  const clouds = [{ positions: r.merged.positions, colors: r.merged.colors, families: r.merged.families, visible: toggles[0].checked }];
+  for (let k = 0; k < r.familyCount; k++) {
+    const f = r.families?.[k] ?? NO_CLOUD;
+    clouds.push({ positions: f.positions, colors: f.colors, families: null, familyMask: 1 << k, visible: toggles[k + 1].checked });
+  }
   viewer.setClouds(clouds, { keepView });
 }
+
+const NO_CLOUD = { positions: new Float32Array(0), colors: new Uint8Array(0) };
+
+/** Whether a family layer is ticked (continuous scanning then asks for the family clouds). */
+export function familyLayersShown() {
+  return [...$('layers').querySelectorAll('input')].some((input) => input.dataset.layer !== '0' && input.checked);
+}
+
+/** Called when a family layer is ticked while the frame shown has no family clouds. */
+let onFamiliesWanted = () => {};
 
 /** One checkbox for the merged cloud and one per family (made again when the count changes). */
 function ensureLayerToggles(families) {
@@ -85,7 +101,10 @@ function ensureLayerToggles(families) {
       input.type = 'checkbox';
       input.checked = i === 0;
       input.dataset.layer = String(i);
-      input.onchange = () => viewer?.setVisible(i, input.checked);
+      input.onchange = () => {
+        viewer?.setVisible(i, input.checked);
+        if (i > 0 && input.checked) onFamiliesWanted();
+      };
       const swatch = document.createElement('span');
       swatch.className = 'swatch';
       swatch.style.background = i === 0 ? '#ddd' : FAMILY_COLORS[i - 1];
@@ -98,7 +117,8 @@ function ensureLayerToggles(families) {
 
 /** The depth map in grey (near bright), no depth in dark blue. */
 function drawDepth(canvas, r) {
-  const { width, height, depth } = r;
+  const { width, height } = r;
+  const depth = r.depth ?? depthOfCloud(r.merged, width, height);
   // The grey scale spans the 1st to 99th percentile, so stray far points do not flatten it.
   const sample = [];
   const step = Math.max(1, Math.floor(depth.length / 20000));
@@ -122,6 +142,25 @@ function drawDepth(canvas, r) {
   $('depth-caption').textContent = Number.isFinite(lo)
     ? `depth ${lo.toFixed(0)}–${hi.toFixed(0)} mm (near bright; 1st–99th percentile)`
     : 'depth: none decoded';
+}
+
+/** Scratch for depthOfCloud, kept between live frames of one size. */
+let cloudDepth = new Float32Array(0);
+
+/**
+ * The depth map of a result that came without one (a live frame): the merged cloud's Z
+ * at the pixel each point came from. Where the cloud has no point this is NaN, as in the
+ * decoder's depth map.
+ */
+function depthOfCloud(cloud, width, height) {
+  if (cloudDepth.length !== width * height) cloudDepth = new Float32Array(width * height);
+  cloudDepth.fill(NaN);
+  const { positions, pixels } = cloud;
+  for (let i = 0; i < pixels.length / 2; i++) {
+    const u = Math.round(pixels[2 * i]), v = Math.round(pixels[2 * i + 1]);
+    if (u >= 0 && u < width && v >= 0 && v < height) cloudDepth[v * width + u] = positions[3 * i + 2];
+  }
+  return cloudDepth;
 }
 
 /** The teaching view: one captioned image per decoding stage; a click enlarges one. */
@@ -150,9 +189,11 @@ function drawStages(stages, name) {
 
 /**
  * Bind the viewer's toolbar and the teaching view's controls. `onFilterChanged()` runs
- * after another filter was chosen, `onRecompute()` when “Recompute” is pressed.
+ * after another filter was chosen, `onRecompute()` when “Recompute” is pressed,
+ * `onFamiliesWanted()` when a family layer is ticked.
  */
-export function bindResultsPanel({ onFilterChanged, onRecompute }) {
+export function bindResultsPanel({ onFilterChanged, onRecompute, onFamiliesWanted: familiesWanted }) {
+  onFamiliesWanted = familiesWanted;
   for (const input of document.querySelectorAll('input[name="color-mode"]')) {
     input.onchange = () => viewer?.setColorMode(input.value);
   }

@@ -15,45 +15,18 @@
 // Messages that arrive while wasm is loading wait in a queue and run in order once it
 // has loaded. Result buffers are transferred, never copied. Frames larger than
 // MAX_FRAME_PIXELS (frame-size.js) are refused before they are decoded or scanned.
+// Scanning, and which results a scan reply carries (`want`), is worker-scan.js.
 // `panicForTest` and `outOfMemoryForTest` exist only for the end-to-end test.
 
 import init, * as wasm from '../pkg/stripelight.js';
-import { MAX_FRAME_PIXELS, frameSizeProblem, imageSize } from './frame-size.js';
-
-/**
- * Scanners kept alive, keyed by spec and calibration (the size comes with the
- * calibration): at most MAX_SCANNERS, and together at most MAX_FRAME_PIXELS pixels, so
- * that a worker holds the buffers of one largest frame at most (a scanner's buffers are
- * many times its frame's size; a 12-megapixel one takes about 2.5 GB).
- */
-const MAX_SCANNERS = 3;
-const scanners = new Map(); // key -> {scanner, pixels}, least recently used first
+import { imageSize } from './frame-size.js';
+import { bytesOf, refuseLargeFrame, scanFrame } from './worker-scan.js';
 
 let state = 'loading'; // 'loading' | 'ready' | 'failed'
 let startupError = '';
 /** The instance's WebAssembly.Memory (set once wasm has loaded). */
 let memory = null;
 const queue = [];
-
-function scannerFor(specJson, calibJson, filter, crosstalk, pixels, id) {
-  const key = [specJson, calibJson, crosstalk ? crosstalk.join(',') : 'none'].join('\u0000');
-  let entry = scanners.get(key);
-  if (entry) {
-    scanners.delete(key); // re-insert as most recently used
-  } else {
-    // Room first, so that the allocator reuses the old scanners' memory for the new one.
-    const held = () => [...scanners.values()].reduce((n, e) => n + e.pixels, 0);
-    while (scanners.size && (scanners.size >= MAX_SCANNERS || held() + pixels > MAX_FRAME_PIXELS)) {
-      const [oldKey, old] = scanners.entries().next().value;
-      scanners.delete(oldKey);
-      old.scanner.free();
-    }
-    progress(id, 'building the scanner (FFT plans and buffers)');
-    entry = { scanner: new wasm.Scanner(specJson, calibJson, filter, crosstalk ? Float32Array.from(crosstalk) : undefined), pixels };
-  }
-  scanners.set(key, entry);
-  return entry.scanner;
-}
 
 function image(img) {
   try {
@@ -62,10 +35,6 @@ function image(img) {
   } finally {
     img.free();
   }
-}
-
-function buffersOf(cloud) {
-  return [cloud.positions, cloud.colors, cloud.pixels, cloud.families].map((a) => a.buffer);
 }
 
 /** Each handler takes the message and returns {value, transfer}. */
@@ -111,35 +80,8 @@ const handlers = {
     if (size) refuseLargeFrame(size.width, size.height);
     return image(wasm.decodeImage(data));
   },
-  scan({ specJson, calibJson, filter, crosstalk, width, height, rgba, stages }, id) {
-    refuseLargeFrame(width, height);
-    const scanner = scannerFor(specJson, calibJson, filter, crosstalk, width * height, id);
-    scanner.setFilter(filter);
-    progress(id, `decoding a ${width}x${height} frame (${filter})`);
-    const t0 = performance.now();
-    const stats = JSON.parse(scanner.scan(bytesOf(rgba), width, height));
-    const ms = performance.now() - t0;
-    // The results stay in the scanner until its next frame; each array is copied out
-    // once and then transferred.
-    const merged = scanner.cloud();
-    const families = [];
-    for (let k = 0; k < scanner.familyCount; k++) families.push(scanner.cloud(k));
-    const depth = scanner.depth();
-    const correspondence = scanner.correspondence();
-    const value = {
-      merged,
-      families,
-      depth,
-      correspondence,
-      width: scanner.width,
-      height: scanner.height,
-      stats,
-      ms,
-      stages: stages ? stagesOf(scanner) : [],
-    };
-    const transfer = [merged, ...families].flatMap(buffersOf);
-    transfer.push(depth.buffer, correspondence.buffer, ...value.stages.map((s) => s.rgba.buffer));
-    return { value, transfer };
+  scan(msg, id) {
+    return scanFrame(msg, (message) => progress(id, message), memory);
   },
   parseCrosstalk({ text }) {
     return { value: [...wasm.parseCrosstalk(text)] };
@@ -177,11 +119,6 @@ const handlers = {
   },
 };
 
-function refuseLargeFrame(width, height) {
-  const problem = frameSizeProblem(width, height);
-  if (problem) throw new Error(problem);
-}
-
 /**
  * Whether an error means memory ran out. An allocation that fails inside the decoder
  * aborts, which surfaces as a trap (a RuntimeError, like a panic) whose stack names the
@@ -204,21 +141,6 @@ function memoryInUse() {
 /** The size a request's frame has, where it carries one, for crash messages. */
 function frameOf(msg) {
   return msg.width && msg.height ? ` on a ${msg.width}x${msg.height} frame` : '';
-}
-
-function stagesOf(scanner) {
-  return scanner.stages().map((s) => {
-    try {
-      return { name: s.name, caption: s.caption, width: s.width, height: s.height, rgba: s.rgba() };
-    } finally {
-      s.free();
-    }
-  });
-}
-
-/** A Uint8Array view (no copy) of an ArrayBuffer or any typed array. */
-function bytesOf(data) {
-  return data instanceof ArrayBuffer ? new Uint8Array(data) : new Uint8Array(data.buffer, data.byteOffset, data.byteLength);
 }
 
 function progress(id, message) {
