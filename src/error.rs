@@ -24,6 +24,15 @@ pub enum Error {
         /// What is wrong with it.
         problem: String,
     },
+    /// A pattern image that cannot be read into a spec (`pattern import`): which
+    /// part of it and what is wrong.
+    PatternImport {
+        /// What the problem is in: `stripes`, `palette`, `sequence`, `margins`,
+        /// `image` or an option (`scale`, `offset`).
+        field: String,
+        /// What is wrong with it.
+        problem: String,
+    },
     /// A pattern spec file is malformed or inconsistent.
     Spec {
         /// Dotted path of the offending field, e.g. `families[1].angle_deg`.
@@ -121,6 +130,7 @@ impl fmt::Display for Error {
                 write!(f, "calibration import ({format}): {field}: {problem}")
             }
             Error::Spec { field, problem } => write!(f, "pattern spec: {field}: {problem}"),
+            Error::PatternImport { field, problem } => write!(f, "pattern import: {field}: {problem}"),
             Error::ImageSize { expected, got } => write!(
                 f,
                 "image is {}x{} but {}x{} was expected",

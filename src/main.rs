@@ -28,11 +28,15 @@ mod cli {
 
     #[derive(Subcommand)]
     enum Command {
-        /// Write a stripe pattern image and the spec file that describes it.
+        /// Write a stripe pattern image and the spec file that describes it, or read a
+        /// spec from another system's pattern image (`pattern import`).
+        #[command(args_conflicts_with_subcommands = true, subcommand_negates_reqs = true)]
         Pattern {
+            #[command(subcommand)]
+            action: Option<PatternAction>,
             /// Number of stripe directions: 1, 2 or 3.
-            #[arg(long)]
-            directions: usize,
+            #[arg(long, required = true)]
+            directions: Option<usize>,
             /// Projector width in pixels.
             #[arg(long, default_value_t = 1024)]
             width: u32,
@@ -43,11 +47,11 @@ mod cli {
             #[arg(long, default_value_t = stripelight::pattern::DEFAULT_STRIPE_WIDTH)]
             stripe_width: f64,
             /// The pattern image (PNG).
-            #[arg(long)]
-            out: PathBuf,
+            #[arg(long, required = true)]
+            out: Option<PathBuf>,
             /// The pattern spec (JSON).
-            #[arg(long)]
-            spec: PathBuf,
+            #[arg(long, required = true)]
+            spec: Option<PathBuf>,
         },
         /// Decode a camera frame into a depth map and a point cloud.
         Scan {
@@ -174,6 +178,45 @@ mod cli {
     }
 
     #[derive(Subcommand)]
+    enum PatternAction {
+        /// Read the image a projector shows (another system's colour-stripe pattern)
+        /// into a spec: its stripe runs, their colours, margins and the window that
+        /// makes them unique.
+        ///
+        /// The image holds one family of stripes (every row the same for --axis
+        /// columns, every column for rows). It is placed on the projector at --offset
+        /// (the projector pixel of the image's top-left pixel) and --scale (projector
+        /// pixels per image pixel); the projector is the placed image's size unless
+        /// given.
+        Import {
+            /// The pattern image (PNG or JPEG; PNG keeps its colours exact).
+            #[arg(long)]
+            image: PathBuf,
+            /// The spec (JSON) to write.
+            #[arg(long)]
+            out: PathBuf,
+            /// columns (vertical stripes) or rows (horizontal stripes).
+            #[arg(long, default_value = "columns")]
+            axis: String,
+            /// Projector width in pixels.
+            #[arg(long)]
+            projector_width: Option<u32>,
+            /// Projector height in pixels.
+            #[arg(long)]
+            projector_height: Option<u32>,
+            /// Projector pixel X,Y of the image's top-left pixel.
+            #[arg(long, default_value = "0,0")]
+            offset: String,
+            /// Projector pixels per image pixel.
+            #[arg(long, default_value_t = 1.0)]
+            scale: f64,
+            /// The image's encoding gamma (pixel value = 255 · linear^(1/gamma)).
+            #[arg(long, default_value_t = 2.2)]
+            encoding_gamma: f64,
+        },
+    }
+
+    #[derive(Subcommand)]
     enum CalibAction {
         /// Convert a calibration from OpenCV or Bouguet's MATLAB toolbox into the
         /// project's calibration JSON.
@@ -249,7 +292,28 @@ mod cli {
 
     fn dispatch(command: Command) -> Result<()> {
         match command {
-            Command::Pattern { directions, width, height, stripe_width, out, spec } => {
+            Command::Pattern { action: Some(PatternAction::Import { image, out, axis, projector_width, projector_height, offset, scale, encoding_gamma }), .. } => {
+                use stripelight::pattern::import::{import_image, Placement};
+                let projector = match (projector_width, projector_height) {
+                    (Some(w), Some(h)) => Some((w, h)),
+                    (None, None) => None,
+                    _ => return Err(Error::Setting { name: "projector size", problem: "give both --projector-width and --projector-height, or neither".into() }),
+                };
+                let offset = match offset.split(',').map(|t| t.trim().parse::<f64>()).collect::<std::result::Result<Vec<_>, _>>() {
+                    Ok(v) if v.len() == 2 => (v[0], v[1]),
+                    _ => return Err(Error::Setting { name: "offset", problem: format!("must be X,Y (two numbers), got {offset:?}") }),
+                };
+                let place = Placement { axis: axis.parse()?, projector, offset, scale, encoding_gamma };
+                let picture = io::read_rgb8(&image)?;
+                let (spec, report) = import_image(&picture, &place).map_err(|e| prefix(&image, e))?;
+                io::write_file(&out, spec.to_json().as_bytes())?;
+                eprintln!("{report}: {}", out.display());
+                Ok(())
+            }
+            Command::Pattern { directions, width, height, stripe_width, out, spec, .. } => {
+                let (Some(directions), Some(out), Some(spec)) = (directions, out, spec) else {
+                    return Err(Error::Setting { name: "pattern", problem: "needs --directions, --out and --spec".into() });
+                };
                 let pattern = PatternSpec::generate(directions, width, height, stripe_width)?;
                 io::write_file(&spec, pattern.to_json().as_bytes())?;
                 io::write_file(&out, &io::encode_png(&pattern.render_rgb8())?)?;

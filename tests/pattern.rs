@@ -69,16 +69,22 @@ fn broken_spec_files_name_the_field() {
     let good = PatternSpec::generate(2, 1024, 768, DEFAULT_STRIPE_WIDTH).unwrap();
     let mut repeated = good.clone();
     repeated.sequence[5] = repeated.sequence[4];
-    let mut zero = good.clone();
-    zero.palette[0][1] = 0.0;
-    let mut short = good.clone();
-    short.families[1].count = 10;
+    let mut bright = good.clone();
+    bright.palette[0][1] = 1.5;
+    let mut outside = good.clone();
+    outside.families[1].origin = 500.0;
+    let mut nine = good.clone();
+    nine.palette.push([0.5; 3]);
+    let mut background = good.clone();
+    background.background = [0.0, -0.1, 0.0];
     let mut dup_window = good.clone();
     dup_window.sequence[10..13].copy_from_slice(&good.sequence[20..23].to_vec());
     let cases: Vec<(String, &str)> = vec![
         (repeated.to_json(), "sequence[5]"),
-        (zero.to_json(), "palette[0]"),
-        (short.to_json(), "families[1].count"),
+        (bright.to_json(), "palette[0]"),
+        (outside.to_json(), "families[1].origin"),
+        (nine.to_json(), "palette"),
+        (background.to_json(), "background"),
         (good.to_json().replace("\"version\": 1", "\"version\": 9"), "version"),
         (good.to_json().replace("\"width\": 1024", "\"width\": \"wide\""), "width"),
         ("[]".into(), "(file)"),

@@ -781,6 +781,7 @@ fn custom_spec(families: &[(f64, f64)], low: f64, gamma: f64, width: u32, height
         height,
         encoding_gamma: gamma,
         palette: binary_palette(low),
+        background: [0.0; 3],
         sequence,
         window,
         families,

@@ -170,6 +170,7 @@ impl GrayCode {
             height: self.height as u32,
             encoding_gamma: 1.0,
             palette: binary_palette(0.25),
+            background: [0.0; 3],
             sequence: Vec::new(),
             window: 1,
             families: vec![family(0.0, -ou, self.width), family(90.0, -ov, self.height)],

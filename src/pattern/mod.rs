@@ -3,8 +3,12 @@
 //!
 //! # Design
 //!
-//! **Palette.** Eight colours, one per corner of the RGB cube: each channel of a stripe
-//! is either *high* (1.0) or *low* (`low`, never 0), in linear light. The decoder never
+//! **Palette.** Generated patterns use eight colours, one per corner of the RGB cube:
+//! each channel of a stripe is either *high* (1.0) or *low* (`low`, never 0), in linear
+//! light. A spec may hold any palette of 2 to 8 colours, levels of 0 included (black
+//! stripes, or the 3-colour RGB patterns common elsewhere): the projector's black
+//! level is the floor the camera sees, and a channel at 0 on both sides of a boundary
+//! is *unchanged*. The decoder never
 //! needs absolute colour: log-gradient restoration (paper eq. 6) loses each channel's
 //! mean level, so what survives, robustly and independently of the surface colour, is
 //! the *transition* at a stripe boundary: per channel up, down or unchanged. A transition
@@ -41,9 +45,16 @@
 //! `low` grows with the number of families (0.25, 0.35, 0.45) to keep `low^N` above the
 //! projector's black level.
 //!
+//! **Margins.** A family's stripes need not cover the projector: outside them the
+//! projector shows the spec's `background` (black unless given). The boundaries
+//! between the background and the first and last stripes are identified like any
+//! other when they lie on the projector image (boundary 0 and boundary `count`).
+//!
 //! **Pixels.** The pattern image stores `255 · L^(1/encoding_gamma)` so that a projector
 //! with that gamma emits `L`. Stripe edges are antialiased by 4x4 supersampling of each
 //! family before the product (which keeps the product separable).
+
+pub mod import;
 
 use crate::error::{Error, Result};
 use crate::raster::{Image, Rgb};
@@ -90,8 +101,12 @@ pub struct PatternSpec {
     pub height: u32,
     /// Pixel value = 255 · linear^(1 / encoding_gamma).
     pub encoding_gamma: f64,
-    /// Stripe colours, linear RGB in (0, 1].
+    /// Stripe colours, linear RGB in [0, 1]; 2 to 8 of them.
     pub palette: Vec<[f64; 3]>,
+    /// What the projector shows outside a family's stripes, linear RGB in [0, 1]
+    /// (black when absent). Only seen when the stripes leave margins.
+    #[serde(default, skip_serializing_if = "is_black")]
+    pub background: [f64; 3],
     /// Palette index of each stripe; shared by all families.
     pub sequence: Vec<u8>,
     /// Every window of this many consecutive stripes is unique by its transitions.
@@ -100,16 +115,28 @@ pub struct PatternSpec {
     pub families: Vec<Family>,
 }
 
+/// Whether a colour is black (the default background, left out of spec files).
+fn is_black(c: &[f64; 3]) -> bool {
+    c.iter().all(|&x| x == 0.0)
+}
+
+/// Most palette colours a spec may hold.
+pub const MAX_PALETTE: usize = 8;
+
 /// A transition code: per channel -1 (down), 0 (unchanged) or +1 (up).
 pub type Transition = [i8; 3];
 
 /// Log-ratio below which a channel counts as unchanged between two palette colours.
 const SAME_LEVEL_LOG: f64 = 0.1;
 
-/// The transition from palette colour `a` to `b`.
+/// The transition from palette colour `a` to `b`. A channel at 0 on both sides is
+/// unchanged; from 0 to any level it is up.
 pub fn transition(a: [f64; 3], b: [f64; 3]) -> Transition {
     let mut t = [0i8; 3];
     for c in 0..3 {
+        if a[c] == b[c] {
+            continue;
+        }
         let d = (b[c] / a[c]).ln();
         t[c] = if d > SAME_LEVEL_LOG {
             1
@@ -146,22 +173,34 @@ pub fn binary_palette(low: f64) -> Vec<[f64; 3]> {
 /// colours differ and every window of `window` colours is unique by its transitions.
 /// `None` when no such sequence exists within the search budget.
 pub fn windowed_sequence(len: usize, window: usize) -> Option<Vec<u8>> {
-    let palette = binary_palette(0.5);
+    windowed_sequence_in(&binary_palette(0.5), len, window)
+}
+
+/// [`windowed_sequence`] over any palette of up to [`MAX_PALETTE`] colours: adjacent
+/// colours differ in at least one channel and every window of `window` colours is
+/// unique by its transitions. Depth-first search with backtracking, trying first the
+/// colours that change the most channels.
+pub fn windowed_sequence_in(palette: &[[f64; 3]], len: usize, window: usize) -> Option<Vec<u8>> {
+    let k = palette.len();
+    if k < 2 || k > MAX_PALETTE || window < 2 {
+        return None;
+    }
     let code = |a: u8, b: u8| -> u32 {
         let t = transition(palette[a as usize], palette[b as usize]);
         t.iter().fold(0, |acc, &x| acc * 3 + (x + 1) as u32)
     };
+    let changed = |a: u8, b: u8| transition(palette[a as usize], palette[b as usize]).iter().filter(|&&x| x != 0).count();
     // Candidate next colours from each colour, most channels changed first, ties
     // broken by a rotation that spreads colours evenly.
-    let order: Vec<Vec<u8>> = (0..8u8)
+    let order: Vec<Vec<u8>> = (0..k as u8)
         .map(|c| {
-            let mut next: Vec<u8> = (0..8u8).filter(|&n| n != c).collect();
-            next.sort_by_key(|&n| (std::cmp::Reverse((c ^ n).count_ones()), (n + 8 - c) % 8));
+            let mut next: Vec<u8> = (0..k as u8).filter(|&n| changed(c, n) > 0).collect();
+            next.sort_by_key(|&n| (std::cmp::Reverse(changed(c, n)), (n as usize + k - c as usize) % k));
             next
         })
         .collect();
     let key = |seq: &[u8]| -> u64 {
-        seq.windows(2).fold(0u64, |acc, w| acc * 27 + code(w[0], w[1]) as u64)
+        seq.windows(2).fold(0u64, |acc, w| acc.wrapping_mul(27).wrapping_add(code(w[0], w[1]) as u64))
     };
     let mut seq = vec![0u8];
     let mut choice = vec![0usize];
@@ -271,6 +310,7 @@ impl PatternSpec {
             height,
             encoding_gamma: 2.2,
             palette: binary_palette(low),
+            background: [0.0; 3],
             sequence,
             window,
             families,
@@ -317,13 +357,17 @@ impl PatternSpec {
         if !(self.encoding_gamma.is_finite() && (0.2..=5.0).contains(&self.encoding_gamma)) {
             return Err(err("encoding_gamma", format!("must be in 0.2..=5, got {}", self.encoding_gamma)));
         }
-        if self.palette.len() < 2 || self.palette.len() > 256 {
-            return Err(err("palette", format!("needs 2..=256 colours, got {}", self.palette.len())));
+        if self.palette.len() < 2 || self.palette.len() > MAX_PALETTE {
+            return Err(err("palette", format!("needs 2..={MAX_PALETTE} colours, got {}", self.palette.len())));
         }
+        let in_range = |c: &[f64; 3]| c.iter().all(|x| x.is_finite() && (0.0..=1.0).contains(x));
         for (i, c) in self.palette.iter().enumerate() {
-            if c.iter().any(|x| !(x.is_finite() && *x > 0.0 && *x <= 1.0)) {
-                return Err(err(&format!("palette[{i}]"), format!("channels must be in (0, 1] (no channel may be zero), got {c:?}")));
+            if !in_range(c) {
+                return Err(err(&format!("palette[{i}]"), format!("channels must be in [0, 1], got {c:?}")));
             }
+        }
+        if !in_range(&self.background) {
+            return Err(err("background", format!("channels must be in [0, 1], got {:?}", self.background)));
         }
         if let Some(i) = self.sequence.iter().position(|&s| s as usize >= self.palette.len()) {
             return Err(err(&format!("sequence[{i}]"), format!("index {} is outside the palette of {}", self.sequence[i], self.palette.len())));
@@ -362,24 +406,39 @@ impl PatternSpec {
             if f.count < 2 || f.count > self.sequence.len() {
                 return Err(err(&field("count"), format!("must be in 2..={} (the sequence length), got {}", self.sequence.len(), f.count)));
             }
+            // Margins are allowed, but the stripes must reach into the image.
             let (lo, hi) = Family::extent(f.angle_deg, self.width, self.height);
-            if f.origin > lo + 1e-6 || f.origin + f.count as f64 * f.stripe_width < hi - 1e-6 {
-                return Err(err(&field("count"), format!("stripes cover {:.1}..{:.1} but the image spans {lo:.1}..{hi:.1}", f.origin, f.origin + f.count as f64 * f.stripe_width)));
+            let end = f.origin + f.count as f64 * f.stripe_width;
+            if f.origin >= hi || end <= lo {
+                return Err(err(&field("origin"), format!("stripes cover {:.1}..{end:.1}, outside the image's {lo:.1}..{hi:.1}", f.origin)));
             }
         }
         Ok(())
     }
 
-    /// Linear colour of stripe `j` (clamped to the family's stripes).
+    /// Linear colour of stripe `j`; the background outside the family's stripes.
     pub fn stripe_color(&self, family: usize, j: i64) -> [f64; 3] {
         let count = self.families[family].count as i64;
-        let j = j.clamp(0, count - 1) as usize;
-        self.palette[self.sequence[j] as usize]
+        match usize::try_from(j) {
+            Ok(j) if (j as i64) < count => self.palette[self.sequence[j] as usize],
+            _ => self.background,
+        }
     }
 
-    /// The transition from stripe `j - 1` to stripe `j`.
+    /// The transition from stripe `j - 1` to stripe `j` (boundary 0 and boundary
+    /// `count` are the background's edges).
     pub fn boundary_transition(&self, family: usize, j: usize) -> Transition {
         transition(self.stripe_color(family, j as i64 - 1), self.stripe_color(family, j as i64))
+    }
+
+    /// Whether boundary `j` of a family (0..=count) lies on the projector image, so a
+    /// camera can see it. Inner boundaries of a valid spec mostly do; the outer two
+    /// only when the stripes leave a margin.
+    pub fn boundary_on_image(&self, family: usize, j: usize) -> bool {
+        let f = &self.families[family];
+        let (lo, hi) = Family::extent(f.angle_deg, self.width, self.height);
+        let s = f.origin + j as f64 * f.stripe_width;
+        s > lo && s < hi
     }
 
     /// The family's linear colour averaged over the pixel at (u, v).
