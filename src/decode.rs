@@ -44,7 +44,8 @@ pub const PROPAGATION_SWEEPS: usize = 4;
 /// three still cuts the candidates about threefold.
 pub const MAX_EXTRA_SPAN: usize = 4;
 
-/// Most compatible transitions an edge may have to take an identity by propagation:
+/// Most compatible transitions (of those the pattern uses) an edge may have to take an
+/// identity by propagation:
 /// propagation checks one identity only, so a loose edge would take it by chance.
 pub const MAX_PROPAGATION_CODES: u32 = 1;
 
@@ -55,12 +56,15 @@ pub const MIN_LINE_SUPPORT: usize = 2;
 pub struct Decoder {
     /// Transitions per window (`spec.window - 1`).
     span: usize,
-    /// Pattern code of boundary j (between stripes j-1 and j), j in 1..count.
+    /// Pattern code of boundary j (between stripes j-1 and j), j in 0..=count;
+    /// [`NO_CODE`] for the outer two unless the stripes leave a margin there.
     codes: Vec<Code>,
     /// Per code as seen along the scan direction, the boundaries that show it.
     by_seen_code: Vec<Vec<i32>>,
     /// Boundary identities grow along the scan direction.
     increasing: bool,
+    /// The codes some boundary of the pattern shows, as seen along the scan direction.
+    used_codes: CodeMask,
     candidates: Vec<i32>,
     votes: Vec<(i32, u8, bool)>,
 }
@@ -70,19 +74,27 @@ impl Decoder {
     /// direction when `increasing`.
     pub fn new(spec: &PatternSpec, family: usize, increasing: bool) -> Self {
         let count = spec.families[family].count;
-        let mut codes = vec![NO_CODE; count];
-        for (j, c) in codes.iter_mut().enumerate().skip(1) {
-            *c = pack(spec.boundary_transition(family, j));
-        }
+        let codes: Vec<Code> = (0..=count)
+            .map(|j| {
+                let inner = j > 0 && j < count;
+                let t = spec.boundary_transition(family, j);
+                if (inner || spec.boundary_on_image(family, j)) && t != [0; 3] {
+                    pack(t)
+                } else {
+                    NO_CODE
+                }
+            })
+            .collect();
         let span = spec.window.saturating_sub(1).max(1);
         let mut by_seen_code = vec![Vec::new(); 27];
-        for (j, &c) in codes.iter().enumerate().skip(1) {
+        for (j, &c) in codes.iter().enumerate().filter(|&(_, &c)| c != NO_CODE) {
             let seen = if increasing { c } else { reverse(c) };
             if let Some(list) = by_seen_code.get_mut(seen as usize) {
                 list.push(j as i32);
             }
         }
-        Decoder { span, codes, by_seen_code, increasing, candidates: Vec::new(), votes: Vec::new() }
+        let used_codes = (0..27).filter(|&c| !by_seen_code[c].is_empty()).fold(0, |m, c| m | 1 << c);
+        Decoder { span, codes, by_seen_code, increasing, used_codes, candidates: Vec::new(), votes: Vec::new() }
     }
 
     /// Whether boundary `j` can be what an edge with the compatible codes `mask` shows.
@@ -95,12 +107,12 @@ impl Decoder {
     /// [`Decoder::fits`] for propagation: only edges with specific evidence.
     #[inline]
     fn confirms(&self, mask: CodeMask, j: i32) -> bool {
-        mask.count_ones() <= MAX_PROPAGATION_CODES && self.fits(mask, j)
+        (mask & self.used_codes).count_ones() <= MAX_PROPAGATION_CODES && self.fits(mask, j)
     }
 
     /// The pattern's code for boundary `j` as seen along the scan direction.
     fn seen_code(&self, j: i32) -> Code {
-        if j < 1 || j as usize >= self.codes.len() {
+        if j < 0 || j as usize >= self.codes.len() {
             return NO_CODE;
         }
         let c = self.codes[j as usize];
@@ -139,12 +151,14 @@ impl Decoder {
             }
         }
         // Evidence in bits: an edge whose transition is known exactly names one of the
-        // 26 transitions (log2 26 bits); one compatible with m of them, log2(26 / m).
+        // P transitions the pattern uses (log2 P bits: 26 for the 8-colour palette, 6
+        // for 3-colour RGB); one compatible with m of them, log2(P / m).
         // A window is accepted only with at least the evidence of the pattern's own
         // window of exact transitions, so that loose evidence is never taken on less
         // than clean evidence would be.
-        let bits = |mask: CodeMask| (26.0 / mask.count_ones().max(1) as f32).log2();
-        let needed = self.span as f32 * 26f32.log2() - 1e-3;
+        let used = self.used_codes;
+        let bits = |mask: CodeMask| (used.count_ones() as f32 / (mask & used).count_ones().max(1) as f32).log2();
+        let needed = self.span as f32 * (used.count_ones() as f32).log2() - 1e-3;
         let mut evidence = bits(first.mask);
         let mut len = 1;
         while len < self.span + MAX_EXTRA_SPAN {

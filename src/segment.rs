@@ -76,6 +76,27 @@ pub const NOISE_SIGMAS: f32 = 2.5;
 /// channel dark is unlit.
 pub const DARK_LEVEL: f32 = 0.0035;
 
+/// Smallest change of the camera's linear signal across a boundary, largest channel,
+/// in the log (ratio 1.14): half of [`MIN_STEP`], since blur and a neighbouring
+/// boundary take some of a narrow stripe's contrast before it is measured.
+pub const MIN_SEEN_STEP: f32 = 0.5 * MIN_STEP;
+
+/// Linear level at which a channel's share of the edge strength is halved: six noise
+/// standard deviations ([`NOISE_LINEAR`]). A channel whose brighter side is at the
+/// projector's black level on a mid-grey surface (about 0.01) counts a seventh; one
+/// at the default palette's low level (0.25 of full, 0.1 on a dark surface) nine
+/// tenths.
+pub const STRENGTH_NOISE_LEVEL: f32 = 6.0 * NOISE_LINEAR;
+
+/// How far, in expected stripe periods, the dark side's other boundary may be for a
+/// half-dark channel to be read (see `classify`).
+pub const HALF_DARK_STRIPE: f32 = 1.6;
+
+/// How many times [`DARK_LEVEL`] the other side of a boundary must be for a channel
+/// dark on one side to read as a step: four times is a ratio of 1.4 in the log, well
+/// above [`MIN_STEP`], and about 8-bit code 38 through gamma 2.2.
+pub const LIT_BESIDE_DARK: f32 = 4.0;
+
 /// Per-pixel flags: bit `c` (0..3) channel c is clipped, bit `3 + c` channel c is dark,
 /// [`UNUSABLE`] the pixel cannot take part in decoding.
 pub type PixelFlags = u8;
@@ -236,9 +257,16 @@ impl Segmentation {
                 let (fa, fb, fc) = (sc.flags[s - 1], sc.flags[s], sc.flags[s + 1]);
                 sc.strength[s] = if ok(fa) && ok(fb) && ok(fc) {
                     let dark = fa | fb | fc;
+                    // Each channel weighted by how far its brighter side is above the
+                    // noise: a channel near the floor on both sides (a black stripe's
+                    // channel) has a log that is mostly noise.
                     (0..3)
                         .filter(|&ch| dark & (1 << (3 + ch)) == 0)
-                        .map(|ch| (0.5 * (sc.signal[ch][s + 1] - sc.signal[ch][s - 1])).powi(2))
+                        .map(|ch| {
+                            let m = sc.level[ch][s - 1].max(sc.level[ch][s + 1]);
+                            let weight = m * m / (m * m + STRENGTH_NOISE_LEVEL * STRENGTH_NOISE_LEVEL);
+                            weight * (0.5 * (sc.signal[ch][s + 1] - sc.signal[ch][s - 1])).powi(2)
+                        })
                         .sum()
                 } else {
                     0.0
@@ -271,10 +299,20 @@ impl Segmentation {
                         }
                         (0..3).map(|ch| (0.5 * (sc.signal[ch][t + 1].exp() - sc.signal[ch][t - 1].exp())).powi(2)).sum()
                     };
-                    let (a, b, c) = (lin(s - 1), lin(s), lin(s + 1));
+                    // The log strength leaves out channels that are dark on a side,
+                    // which can move its peak a pixel towards the bright side (black
+                    // stripes): the linear gradient's own peak, a pixel either way, is
+                    // where the parabola goes.
+                    let mut p = s;
+                    if p >= 2 && lin(p - 1) > lin(p) && lin(p - 1) >= lin(p + 1) {
+                        p -= 1;
+                    } else if p + 2 < len && lin(p + 1) > lin(p) {
+                        p += 1;
+                    }
+                    let (a, b, c) = (lin(p - 1), lin(p), lin(p + 1));
                     let den = a - 2.0 * b + c;
                     let offset = if den < 0.0 { (0.5 * (a - c) / den).clamp(-0.5, 0.5) } else { 0.0 };
-                    edges.push(Edge { pos: s as f32 + offset, code: NO_CODE, mask: 0, run: run_id, id: -1 });
+                    edges.push(Edge { pos: p as f32 + offset, code: NO_CODE, mask: 0, run: run_id, id: -1 });
                 }
                 s += 1;
             }
@@ -371,6 +409,8 @@ fn classify(edges: &mut [Edge], sc: &LineScratch, period: f32) {
     let n = edges.len();
     for i in 0..n {
         let here = edges[i];
+        let has_prev = i > 0 && edges[i - 1].run == here.run && here.pos - edges[i - 1].pos <= HALF_DARK_STRIPE * period;
+        let has_next = i + 1 < n && edges[i + 1].run == here.run && edges[i + 1].pos - here.pos <= HALF_DARK_STRIPE * period;
         let prev = if i > 0 && edges[i - 1].run == here.run { edges[i - 1].pos } else { here.pos - period };
         let next = if i + 1 < n && edges[i + 1].run == here.run { edges[i + 1].pos } else { here.pos + period };
         let mut sides = [(Side::default(), Side::default()); 3];
@@ -391,10 +431,21 @@ fn classify(edges: &mut [Edge], sc: &LineScratch, period: f32) {
         let mut delta = [0f32; 3];
         let mut sigma = [0f32; 3];
         let mut wildcard = [false; 3];
+        // A channel dark on one side only and clearly lit on the other has a known
+        // direction even though its ratio cannot be read (a black stripe's edge), when
+        // the dark side is a stripe: another boundary ends it within a stripe's width
+        // or so (a shadow's edge has none).
+        let mut half_dark: [Values; 3] = [0; 3];
         for ch in 0..3 {
             let (l, r) = sides[ch];
             delta[ch] = r.log - l.log;
             sigma[ch] = log_noise(&l).hypot(log_noise(&r));
+            let lit = |s: &Side| !s.dark && s.level >= LIT_BESIDE_DARK * DARK_LEVEL;
+            if has_prev && l.dark && lit(&r) {
+                half_dark[ch] = UP;
+            } else if has_next && r.dark && lit(&l) {
+                half_dark[ch] = DOWN;
+            }
             wildcard[ch] = l.dark || r.dark || (l.clipped && r.clipped);
         }
         // The reference step: the largest significant change among readable channels,
@@ -406,6 +457,23 @@ fn classify(edges: &mut [Edge], sc: &LineScratch, period: f32) {
         if largest == 0.0 {
             largest = largest_of(&significant);
         }
+        // The camera's own signal must change too: the restoration rings beside strong
+        // steps (a few tenths in the log, in wide stripes), and a ring between two
+        // plateaus of one stripe is no boundary however the restored signal reads.
+        let seen_step = (0..3).fold(0f32, |m, ch| {
+            let (l, r) = sides[ch];
+            let noise = NOISE_LINEAR * (1.0 / l.n.max(1) as f32 + 1.0 / r.n.max(1) as f32).sqrt();
+            if (r.level - l.level).abs() <= NOISE_SIGMAS * noise {
+                return m;
+            }
+            m.max((r.level.max(DARK_LEVEL) / l.level.max(DARK_LEVEL)).ln().abs())
+        });
+        if seen_step < MIN_SEEN_STEP {
+            continue;
+        }
+        if largest < MIN_STEP && half_dark.iter().any(|&v| v != 0) {
+            largest = MIN_STEP;
+        }
         if largest < MIN_STEP {
             // Too little reliable change for a boundary of this family: noise, shading,
             // or another family's boundary leaking through the restoration. Dropped, so
@@ -414,6 +482,10 @@ fn classify(edges: &mut [Edge], sc: &LineScratch, period: f32) {
         }
         let mut values = [ANY_VALUE; 3];
         for ch in 0..3 {
+            if half_dark[ch] != 0 {
+                values[ch] = half_dark[ch];
+                continue;
+            }
             if wildcard[ch] {
                 continue;
             }
