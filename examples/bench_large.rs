@@ -13,7 +13,7 @@
 
 use std::time::Instant;
 use stripelight::calib::Intrinsics;
-use stripelight::pattern::{binary_palette, windowed_sequence_in, Family, SPEC_FORMAT, SPEC_VERSION};
+use stripelight::pattern::{binary_palette, windowed_sequence_in, Family};
 use stripelight::scan::{ScanConfig, Scanner};
 use stripelight::sim::{self, Scene, SimConfig};
 use stripelight::{Calibration, PatternSpec};
@@ -38,20 +38,8 @@ fn third_party() -> Result<PatternSpec, Box<dyn std::error::Error>> {
     let mut palette = binary_palette(0.0);
     palette.rotate_left(3);
     let sequence = windowed_sequence_in(&palette, count, 4).ok_or("no sequence")?;
-    let spec = PatternSpec {
-        format: SPEC_FORMAT.into(),
-        version: SPEC_VERSION,
-        width: 1024,
-        height: 768,
-        encoding_gamma: 2.2,
-        palette,
-        background: [0.0; 3],
-        sequence,
-        window: 4,
-        families: vec![Family { angle_deg: 0.0, stripe_width: width, origin: -(count as f64) * width / 2.0, count }],
-    };
-    spec.validate()?;
-    Ok(spec)
+    let family = Family { angle_deg: 0.0, stripe_width: width, origin: -(count as f64) * width / 2.0, count };
+    Ok(PatternSpec::one_family(1024, 768, palette, [0.0; 3], sequence, 4, family)?)
 }
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {

@@ -8,7 +8,7 @@ mod support;
 wasm_bindgen_test::wasm_bindgen_test_configure!(run_in_browser);
 
 use stripelight::pattern::import::{import_image, Placement, StripeAxis};
-use stripelight::pattern::{binary_palette, windowed_sequence_in, Family, SPEC_FORMAT, SPEC_VERSION};
+use stripelight::pattern::{binary_palette, windowed_sequence_in, Family};
 use stripelight::{Image, PatternSpec};
 
 /// One family of `count` stripes, `width` projector pixels wide, starting at projector
@@ -23,20 +23,8 @@ fn striped(palette: Vec<[f64; 3]>, window: usize, count: usize, width: f64, star
     }
     let count = sequence.len();
     let centre = if rows { (ph as f64 - 1.0) / 2.0 } else { (pw as f64 - 1.0) / 2.0 };
-    let spec = PatternSpec {
-        format: SPEC_FORMAT.into(),
-        version: SPEC_VERSION,
-        width: pw,
-        height: ph,
-        encoding_gamma: 2.2,
-        palette,
-        background,
-        sequence,
-        window,
-        families: vec![Family { angle_deg: if rows { 90.0 } else { 0.0 }, stripe_width: width, origin: start - 0.5 - centre, count }],
-    };
-    spec.validate().expect("a valid spec");
-    canonical(spec)
+    let family = Family { angle_deg: if rows { 90.0 } else { 0.0 }, stripe_width: width, origin: start - 0.5 - centre, count };
+    canonical(PatternSpec::one_family(pw, ph, palette, background, sequence, window, family).expect("a valid spec"))
 }
 
 /// The same pattern with its palette in order of first appearance (how an import

@@ -11,7 +11,7 @@ mod support;
 wasm_bindgen_test::wasm_bindgen_test_configure!(run_in_browser);
 
 use stripelight::eval::measure;
-use stripelight::pattern::{binary_palette, windowed_sequence_in, Family, SPEC_FORMAT, SPEC_VERSION};
+use stripelight::pattern::{binary_palette, windowed_sequence_in, Family};
 use stripelight::scan::{ScanConfig, Scanner};
 use stripelight::sim::{render, Scene, SimConfig};
 use stripelight::{Calibration, PatternSpec};
@@ -20,20 +20,8 @@ use stripelight::{Calibration, PatternSpec};
 /// centred on a 1024x768 projector with black on either side.
 fn third_party(palette: Vec<[f64; 3]>, window: usize, count: usize, stripe_width: f64) -> PatternSpec {
     let sequence = windowed_sequence_in(&palette, count, window).expect("a sequence");
-    let spec = PatternSpec {
-        format: SPEC_FORMAT.into(),
-        version: SPEC_VERSION,
-        width: 1024,
-        height: 768,
-        encoding_gamma: 2.2,
-        palette,
-        background: [0.0; 3],
-        sequence,
-        window,
-        families: vec![Family { angle_deg: 0.0, stripe_width, origin: -(count as f64) * stripe_width / 2.0, count }],
-    };
-    spec.validate().expect("a valid spec");
-    spec
+    let family = Family { angle_deg: 0.0, stripe_width, origin: -(count as f64) * stripe_width / 2.0, count };
+    PatternSpec::one_family(1024, 768, palette, [0.0; 3], sequence, window, family).expect("a valid spec")
 }
 
 /// What one scan of `scene` under `spec` gives: coverage of the lit pixels

@@ -11,7 +11,7 @@
 //! antialiased edges (pixels that blend two stripes) read as narrow stripes and are
 //! refused as uneven widths.
 
-use super::{transition, Family, PatternSpec, Transition, MAX_PALETTE, SPEC_FORMAT, SPEC_VERSION};
+use super::{transition, Family, PatternSpec, Transition, MAX_PALETTE};
 use crate::error::{Error, Result};
 use crate::raster::Image;
 
@@ -184,19 +184,9 @@ pub fn import_image(image: &Image<[u8; 3]>, place: &Placement) -> Result<(Patter
         origin: first_start - centre,
         count: stripes.len(),
     };
-    let spec = PatternSpec {
-        format: SPEC_FORMAT.into(),
-        version: SPEC_VERSION,
-        width: pw,
-        height: ph,
-        encoding_gamma: place.encoding_gamma,
-        palette,
-        background: background.map(linear).unwrap_or([0.0; 3]),
-        sequence,
-        window,
-        families: vec![family],
-    };
-    spec.validate().map_err(|e| fail("spec", format!("the pattern read from the image is not a valid spec: {e}")))?;
+    let mut spec = PatternSpec::one_family(pw, ph, palette, background.map(linear).unwrap_or([0.0; 3]), sequence, window, family)
+        .map_err(|e| fail("spec", format!("the pattern read from the image is not a valid spec: {e}")))?;
+    spec.encoding_gamma = place.encoding_gamma;
     let margins = match background {
         Some(c) => format!("margins of {c:?}"),
         None => "no margins".into(),

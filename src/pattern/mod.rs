@@ -320,6 +320,25 @@ impl PatternSpec {
         Ok(spec)
     }
 
+    /// A validated spec of one stripe family on a `width` x `height` projector (a
+    /// pattern from elsewhere): encoding gamma 2.2 unless changed afterwards.
+    pub fn one_family(width: u32, height: u32, palette: Vec<[f64; 3]>, background: [f64; 3], sequence: Vec<u8>, window: usize, family: Family) -> Result<Self> {
+        let spec = PatternSpec {
+            format: SPEC_FORMAT.into(),
+            version: SPEC_VERSION,
+            width,
+            height,
+            encoding_gamma: 2.2,
+            palette,
+            background,
+            sequence,
+            window,
+            families: vec![family],
+        };
+        spec.validate()?;
+        Ok(spec)
+    }
+
     /// Parse and validate a spec file. Errors name the offending field.
     pub fn from_json(text: &str) -> Result<Self> {
         let de = &mut serde_json::Deserializer::from_str(text);
