@@ -57,34 +57,50 @@ pub fn merge_into<D: AsRef<[f32]>>(depths: &[D], weights: &[Vec<f32>], out: &mut
 
 /// Remove depths with fewer than [`MIN_SUPPORT`] of their 8 neighbours on the same
 /// surface. `scratch` is resized to the image and overwritten.
+///
+/// Interior pixels take a path without bounds checks (a comparison with a NaN
+/// neighbour is false, so missing neighbours need no test of their own); the one-pixel
+/// border takes the general path.
 pub fn remove_isolated(depth: &mut [f32], width: usize, height: usize, scratch: &mut Vec<f32>) -> usize {
     scratch.clear();
     scratch.extend_from_slice(depth);
+    let src = &scratch[..];
     let mut removed = 0;
+    let mut keep = |i: usize, support: usize, depth: &mut [f32]| {
+        if support < MIN_SUPPORT {
+            depth[i] = f32::NAN;
+            removed += 1;
+        }
+    };
+    let general = |x: usize, y: usize, z: f32| -> usize {
+        let tol = neighbour_tolerance(z);
+        let mut support = 0;
+        for yy in y.saturating_sub(1)..(y + 2).min(height) {
+            for xx in x.saturating_sub(1)..(x + 2).min(width) {
+                if (xx, yy) != (x, y) && (src[yy * width + xx] - z).abs() <= tol {
+                    support += 1;
+                }
+            }
+        }
+        support
+    };
     for y in 0..height {
+        let interior_row = y > 0 && y + 1 < height;
         for x in 0..width {
-            let z = scratch[y * width + x];
+            let i = y * width + x;
+            let z = src[i];
             if z.is_nan() {
                 continue;
             }
-            let tol = neighbour_tolerance(z);
-            let mut support = 0;
-            for dy in -1i32..=1 {
-                for dx in -1i32..=1 {
-                    let (xx, yy) = (x as i32 + dx, y as i32 + dy);
-                    if (dx, dy) == (0, 0) || xx < 0 || yy < 0 || xx >= width as i32 || yy >= height as i32 {
-                        continue;
-                    }
-                    let n = scratch[yy as usize * width + xx as usize];
-                    if !n.is_nan() && (n - z).abs() <= tol {
-                        support += 1;
-                    }
-                }
-            }
-            if support < MIN_SUPPORT {
-                depth[y * width + x] = f32::NAN;
-                removed += 1;
-            }
+            let support = if interior_row && x > 0 && x + 1 < width {
+                let tol = neighbour_tolerance(z);
+                let near = |j: usize| ((src[j] - z).abs() <= tol) as usize;
+                let (up, down) = (i - width, i + width);
+                near(up - 1) + near(up) + near(up + 1) + near(i - 1) + near(i + 1) + near(down - 1) + near(down) + near(down + 1)
+            } else {
+                general(x, y, z)
+            };
+            keep(i, support, depth);
         }
     }
     removed
@@ -104,6 +120,41 @@ mod tests {
         assert!((out[0] - 700.75).abs() < 1e-3 && fam[0] == 3);
         assert!(out[1].is_nan() && fam[1] == 0);
         assert_eq!((out[2], fam[2]), (800.0, 2));
+    }
+
+    /// The fast path gives what the plain definition gives, borders included.
+    #[test]
+    fn isolated_removal_matches_the_definition() {
+        let (w, h) = (13, 9);
+        let mut state = 7u32;
+        let mut next = || {
+            state = state.wrapping_mul(1_103_515_245).wrapping_add(12_345);
+            (state >> 8) as f32 / (1u32 << 24) as f32
+        };
+        let d: Vec<f32> = (0..w * h).map(|_| if next() < 0.3 { f32::NAN } else { 700.0 + 20.0 * next() }).collect();
+        let mut expected = d.clone();
+        for y in 0..h as i32 {
+            for x in 0..w as i32 {
+                let z = d[(y * w as i32 + x) as usize];
+                let support = (-1..=1)
+                    .flat_map(|dy| (-1..=1).map(move |dx| (dx, dy)))
+                    .filter(|&(dx, dy)| (dx, dy) != (0, 0))
+                    .filter(|&(dx, dy)| {
+                        let (xx, yy) = (x + dx, y + dy);
+                        xx >= 0 && yy >= 0 && xx < w as i32 && yy < h as i32 && {
+                            let n = d[(yy * w as i32 + xx) as usize];
+                            !n.is_nan() && (n - z).abs() <= neighbour_tolerance(z)
+                        }
+                    })
+                    .count();
+                if !z.is_nan() && support < MIN_SUPPORT {
+                    expected[(y * w as i32 + x) as usize] = f32::NAN;
+                }
+            }
+        }
+        let mut got = d.clone();
+        remove_isolated(&mut got, w, h, &mut Vec::new());
+        assert_eq!(got.iter().map(|v| v.to_bits()).collect::<Vec<_>>(), expected.iter().map(|v| v.to_bits()).collect::<Vec<_>>());
     }
 
     #[test]

@@ -293,12 +293,25 @@ impl Segmentation {
                     // Sub-pixel position from the linear-light gradient: camera blur
                     // acts on linear light, so a blurred step's linear gradient peaks
                     // at the step while its log gradient leans to the darker side.
-                    let lin = |t: usize| -> f32 {
-                        if t == 0 || t + 1 >= len {
-                            return 0.0;
+                    // The linear-light gradient at s-2..=s+2 (0 at the line's ends),
+                    // from the exponentials of s-3..=s+3, each taken once.
+                    let mut ex = [[0f32; 7]; 3];
+                    for (k, t) in (s as isize - 3..=s as isize + 3).enumerate() {
+                        if t >= 0 && (t as usize) < len {
+                            for ch in 0..3 {
+                                ex[ch][k] = sc.signal[ch][t as usize].exp();
+                            }
                         }
-                        (0..3).map(|ch| (0.5 * (sc.signal[ch][t + 1].exp() - sc.signal[ch][t - 1].exp())).powi(2)).sum()
-                    };
+                    }
+                    let mut lin = [0f32; 5];
+                    for (k, g) in lin.iter_mut().enumerate() {
+                        let t = s + k;
+                        // t - 2 is the position; it needs both neighbours on the line.
+                        if t >= 3 && t - 2 + 1 < len {
+                            *g = (0..3).map(|ch| (0.5 * (ex[ch][k + 2] - ex[ch][k])).powi(2)).sum();
+                        }
+                    }
+                    let lin = |t: usize| lin[t + 2 - s];
                     // The log strength leaves out channels that are dark on a side,
                     // which can move its peak a pixel towards the bright side (black
                     // stripes): the linear gradient's own peak, a pixel either way, is
