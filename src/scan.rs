@@ -85,6 +85,20 @@ impl StageClock {
         StageClock { clock, last: clock.map_or(0.0, |c| c()) }
     }
 
+    /// The milliseconds since the last lap or split (0 without a clock), starting the
+    /// next.
+    fn split(&mut self) -> f64 {
+        match self.clock {
+            Some(clock) => {
+                let now = clock();
+                let dt = now - self.last;
+                self.last = now;
+                dt
+            }
+            None => 0.0,
+        }
+    }
+
     /// Record the time since the last lap under `name`.
     fn lap(&mut self, name: &'static str, into: &mut Vec<(&'static str, f64)>) {
         if let Some(clock) = self.clock {
@@ -165,6 +179,9 @@ pub struct Scanner {
     weights: Vec<Vec<f32>>,
     merged_families: Vec<u8>,
     scratch: Vec<f32>,
+    /// Per family: a scratch plane and the milliseconds of its four stages.
+    family_scratch: Vec<Vec<f32>>,
+    family_ms: Vec<[f64; 4]>,
     result: ScanResult,
     scanned: bool,
 }
@@ -283,6 +300,8 @@ impl Scanner {
             weights: (0..n).map(|_| plane()).collect(),
             merged_families: vec![0; w * h],
             scratch: Vec::with_capacity(w * h),
+            family_scratch: (0..n).map(|_| Vec::with_capacity(w * h)).collect(),
+            family_ms: vec![[0.0; 4]; n],
             frame: Image::new(w, h, [0; 3]),
             linear: Image::new(w, h, [0.0; 3]),
             flags: vec![0; w * h],
@@ -369,30 +388,68 @@ impl Scanner {
         let usable = pixel_flags_into(self.frame.pixels(), self.linear.pixels(), &mut self.flags);
         clock.lap("linearize", &mut laps);
         self.filter.run(&self.linear, &self.windows, self.config.filter, &mut self.restored)?;
-        // Three families: each family's restored (or raw, for `direct`) log image still
-        // holds much of the others' stripes, 60 degrees away; averaging along the
-        // family's own stripes removes them and keeps its boundaries.
-        if self.predictions.len() >= SMOOTH_MIN_FAMILIES {
-            for (k, restored) in self.restored.iter_mut().enumerate() {
-                smooth_along_stripes(restored, self.other_families_period[k], &mut self.scratch);
-            }
-        }
         clock.lap("filter", &mut laps);
         let families = self.spec.families.len();
+        let clock_fn = self.config.clock;
+        let smooth = families >= SMOOTH_MIN_FAMILIES;
+        let (predictions, periods) = (&self.predictions, &self.other_families_period);
+        let (linear, flags, triangulator) = (self.linear.pixels(), &self.flags[..], &self.triangulator);
+        // One family's stages, from its restored image to its depth map with isolated
+        // points removed; the families are independent, so natively they run at once.
+        type FamilyParts<'a> = (
+            &'a mut Restored,
+            (&'a mut Segmentation, (&'a mut Decoder, (&'a mut Vec<f32>, (&'a mut Vec<f32>, (&'a mut Image<f32>, (&'a mut Vec<f32>, &'a mut [f64; 4])))))),
+        );
+        let family = |(k, (restored, (seg, (decoder, (coords, (weights, (depth, (scratch, ms)))))))): (usize, FamilyParts)| {
+            let mut clock = StageClock::start(clock_fn);
+            let pred = predictions[k];
+            // Three families: each family's restored (or raw, for `direct`) log image
+            // still holds much of the others' stripes, 60 degrees away; averaging along
+            // the family's own stripes removes them and keeps its boundaries.
+            if smooth {
+                smooth_along_stripes(restored, periods[k], scratch);
+            }
+            seg.run(restored, linear, flags, pred.axis, pred.period);
+            ms[0] = clock.split();
+            decoder.run(seg);
+            decoder.stripe_coords_into(seg, w, MAX_STRIPE_PERIODS * pred.period, coords);
+            ms[1] = clock.split();
+            triangulator.family_depth_into(k, coords, depth.pixels_mut(), weights);
+            ms[2] = clock.split();
+            merge::remove_isolated(depth.pixels_mut(), w, h, scratch);
+            ms[3] = clock.split();
+        };
         let r = &mut self.result;
-        for k in 0..families {
-            let pred = self.predictions[k];
-            self.segmentations[k].run(&self.restored[k], self.linear.pixels(), &self.flags, pred.axis, pred.period);
-            clock.lap("segment", &mut laps);
-            self.decoders[k].run(&mut self.segmentations[k]);
-            self.decoders[k].stripe_coords_into(&self.segmentations[k], w, MAX_STRIPE_PERIODS * pred.period, &mut self.coords[k]);
-            clock.lap("decode", &mut laps);
-            let depth = r.family_depth[k].pixels_mut();
-            self.triangulator.family_depth_into(k, &self.coords[k], depth, &mut self.weights[k]);
-            clock.lap("triangulate", &mut laps);
-            merge::remove_isolated(depth, w, h, &mut self.scratch);
-            clock.lap("merge", &mut laps);
+        #[cfg(not(target_arch = "wasm32"))]
+        {
+            use rayon::prelude::*;
+            self.restored
+                .par_iter_mut()
+                .zip(self.segmentations.par_iter_mut().zip(self.decoders.par_iter_mut().zip(self.coords.par_iter_mut().zip(
+                    self.weights.par_iter_mut().zip(r.family_depth.par_iter_mut().zip(self.family_scratch.par_iter_mut().zip(self.family_ms.par_iter_mut()))),
+                ))))
+                .enumerate()
+                .for_each(family);
         }
+        #[cfg(target_arch = "wasm32")]
+        self.restored
+            .iter_mut()
+            .zip(self.segmentations.iter_mut().zip(self.decoders.iter_mut().zip(self.coords.iter_mut().zip(
+                self.weights.iter_mut().zip(r.family_depth.iter_mut().zip(self.family_scratch.iter_mut().zip(self.family_ms.iter_mut()))),
+            ))))
+            .enumerate()
+            .for_each(family);
+        // Each family's own stage times (overlapping when the families ran at once;
+        // `segment` includes the smoothing along the stripes of three families), then
+        // the wall time of all of them.
+        if clock_fn.is_some() {
+            for ms in &self.family_ms {
+                for (name, t) in ["segment", "decode", "triangulate", "isolated"].into_iter().zip(ms) {
+                    laps.push((name, *t));
+                }
+            }
+        }
+        clock.lap("families", &mut laps);
         merge::merge_into(&r.family_depth, &self.weights, r.depth.pixels_mut(), &mut self.merged_families);
         merge::remove_isolated(r.depth.pixels_mut(), w, h, &mut self.scratch);
         clock.lap("merge", &mut laps);
