@@ -59,6 +59,11 @@ impl Fft2 {
         }
     }
 
+    /// The image height the transforms were planned for.
+    pub fn height(&self) -> usize {
+        self.height
+    }
+
     /// Number of complex values in a spectrum: `(width / 2 + 1) * height`.
     pub fn spectrum_len(&self) -> usize {
         (self.width / 2 + 1) * self.height

@@ -368,8 +368,9 @@ pub struct LogGradFilter {
     hxy: Vec<f32>,
     padded: Vec<f32>,
     spectrum: Vec<Complex32>,
-    work: Vec<Complex32>,
-    out_padded: Vec<f32>,
+    /// The two inverse transforms' workspaces (`Hxx` and `Hxy`), which natively run
+    /// at once.
+    inverse: [InverseLane; 2],
     /// Per channel: `P = l̃/2`, `Q = A - l̃/2`, `C`, so `ĩ^φ = P + cos2φ·Q + sin2φ·C`.
     p: [Vec<f32>; 3],
     q: [Vec<f32>; 3],
@@ -379,8 +380,9 @@ pub struct LogGradFilter {
     m: [Vec<f32>; 6],
     gw: usize,
     gh: usize,
-    /// Per grid sample, the index of the chosen candidate angle (see `compose`).
-    choice: Vec<u8>,
+    /// Per family and grid sample, the index of the chosen candidate angle (see
+    /// `compose`); one buffer per family, made at the first frame.
+    choice: Vec<Vec<u8>>,
     tmp: Vec<f32>,
     tmp2: Vec<f32>,
     /// Per spectrum bin: its 1-degree direction bin, or `u16::MAX` outside the band
@@ -426,15 +428,14 @@ impl LogGradFilter {
             hxy,
             padded: vec![0.0; pw * ph],
             spectrum: vec![Complex32::new(0.0, 0.0); spectrum_len],
-            work: vec![Complex32::new(0.0, 0.0); spectrum_len],
-            out_padded: vec![0.0; pw * ph],
+            inverse: [InverseLane::new(pw, ph), InverseLane::new(pw, ph)],
             p: [plane(), plane(), plane()],
             q: [plane(), plane(), plane()],
             c: [plane(), plane(), plane()],
             m: [grid(), grid(), grid(), grid(), grid(), grid()],
             gw,
             gh,
-            choice: vec![0; gw * gh],
+            choice: Vec::new(),
             tmp: plane(),
             tmp2: plane(),
             direction_bin: direction_bins(pw, ph),
@@ -489,9 +490,18 @@ impl LogGradFilter {
                 self.m[k].copy_from_slice(&self.tmp2[..g]);
             }
         }
-        for (r, w) in out.iter_mut().zip(windows) {
-            self.compose(r, w, per_pixel);
+        // Made once: the families' choice buffers (the count only changes with the spec).
+        let g = self.gw * self.gh;
+        self.choice.resize_with(windows.len(), || vec![0; g]);
+        let planes = Planes { p: &self.p, q: &self.q, c: &self.c, m: &self.m, width: self.width, height: self.height, gw: self.gw };
+        let compose = |((r, w), choice): ((&mut Restored, &FamilyWindow), &mut Vec<u8>)| planes.compose(choice, r, w, per_pixel);
+        #[cfg(not(target_arch = "wasm32"))]
+        {
+            use rayon::prelude::*;
+            out.par_iter_mut().zip(windows.par_iter()).zip(self.choice.par_iter_mut()).for_each(compose);
         }
+        #[cfg(target_arch = "wasm32")]
+        out.iter_mut().zip(windows.iter()).zip(self.choice.iter_mut()).for_each(compose);
         if out.len() == 3 {
             decouple(out);
         }
@@ -540,17 +550,15 @@ impl LogGradFilter {
                     self.p[ch][i] = 0.5 * lt;
                 }
             }
-            for which in 0..2 {
-                let hf = if which == 0 { &self.hxx } else { &self.hxy };
-                for ((o, s), f) in self.work.iter_mut().zip(&self.spectrum).zip(hf) {
-                    *o = s * *f;
-                }
-                self.fft.inverse(&mut self.work, &mut self.out_padded)?;
-                let dst = if which == 0 { &mut self.q[ch] } else { &mut self.c[ch] };
-                for y in 0..h {
-                    dst[y * w..(y + 1) * w].copy_from_slice(&self.out_padded[y * pw..y * pw + w]);
-                }
-            }
+            // The two inverse transforms, `Hxx` into Q and `Hxy` into C.
+            let spectrum = &self.spectrum;
+            let [lane_xx, lane_xy] = &mut self.inverse;
+            let (rxx, rxy) = join(
+                || lane_xx.restore(spectrum, &self.hxx, &mut self.q[ch], w, h),
+                || lane_xy.restore(spectrum, &self.hxy, &mut self.c[ch], w, h),
+            );
+            rxx?;
+            rxy?;
             // Q = A - l̃/2 = A - P.
             for (q, p) in self.q[ch].iter_mut().zip(&self.p[ch]) {
                 *q -= *p;
@@ -612,10 +620,25 @@ impl LogGradFilter {
         ((best.1 as f64 + 0.5 + offset) as f32).to_radians().rem_euclid(PI)
     }
 
+}
+
+/// The planes [`LogGradFilter::run`] composes the families from, borrowed so that the
+/// families can be composed at once.
+struct Planes<'a> {
+    p: &'a [Vec<f32>; 3],
+    q: &'a [Vec<f32>; 3],
+    c: &'a [Vec<f32>; 3],
+    m: &'a [Vec<f32>; 6],
+    width: usize,
+    height: usize,
+    gw: usize,
+}
+
+impl Planes<'_> {
     /// Write one family's restored image: per pixel the paper's angle (within the
     /// window around the dominant angle) with the largest criterion at its grid
     /// sample, or the dominant angle everywhere.
-    fn compose(&mut self, r: &mut Restored, win: &FamilyWindow, per_pixel: bool) {
+    fn compose(&self, choice: &mut [u8], r: &mut Restored, win: &FamilyWindow, per_pixel: bool) {
         // The candidate angles with cos 2φ and sin 2φ, in a fixed array (no allocation);
         // without a per-pixel choice the one candidate is the dominant angle.
         let mut buffer = [(0f32, 0f32, 0f32); PAPER_ANGLES_DEG.len()];
@@ -634,7 +657,7 @@ impl LogGradFilter {
         }
         let candidates = &buffer[..count];
         if count > 1 {
-            for (g, choice) in self.choice.iter_mut().enumerate() {
+            for (g, choice) in choice.iter_mut().enumerate() {
                 let m = [self.m[0][g], self.m[1][g], self.m[2][g], self.m[3][g], self.m[4][g], self.m[5][g]];
                 let (mut best, mut index) = (f32::NEG_INFINITY, 0);
                 for (k, &(_, al, be)) in candidates.iter().enumerate() {
@@ -647,11 +670,11 @@ impl LogGradFilter {
                 *choice = index;
             }
         } else {
-            self.choice.iter_mut().for_each(|c| *c = 0);
+            choice.iter_mut().for_each(|c| *c = 0);
         }
         let (w, gw) = (self.width, self.gw);
         for y in 0..self.height {
-            let grid_row = &self.choice[(y / ANGLE_STEP) * gw..(y / ANGLE_STEP + 1) * gw];
+            let grid_row = &choice[(y / ANGLE_STEP) * gw..(y / ANGLE_STEP + 1) * gw];
             for x in 0..w {
                 let (a, al, be) = candidates[grid_row[x / ANGLE_STEP] as usize];
                 let i = y * w + x;
@@ -662,6 +685,41 @@ impl LogGradFilter {
             }
         }
     }
+}
+
+/// One inverse transform's plan and buffers.
+struct InverseLane {
+    fft: Fft2,
+    work: Vec<Complex32>,
+    out: Vec<f32>,
+}
+
+impl InverseLane {
+    fn new(pw: usize, ph: usize) -> Self {
+        let fft = Fft2::new(pw, ph);
+        InverseLane { work: vec![Complex32::new(0.0, 0.0); fft.spectrum_len()], out: vec![0.0; pw * ph], fft, }
+    }
+
+    /// The inverse transform of `spectrum · response` cropped to `w` x `h` into `dst`.
+    fn restore(&mut self, spectrum: &[Complex32], response: &[f32], dst: &mut [f32], w: usize, h: usize) -> Result<()> {
+        for ((o, s), f) in self.work.iter_mut().zip(spectrum).zip(response) {
+            *o = s * *f;
+        }
+        self.fft.inverse(&mut self.work, &mut self.out)?;
+        let pw = self.out.len() / self.fft.height();
+        for y in 0..h {
+            dst[y * w..(y + 1) * w].copy_from_slice(&self.out[y * pw..y * pw + w]);
+        }
+        Ok(())
+    }
+}
+
+/// Run `a` and `b`, at once natively (rayon's pool), one after the other in WebAssembly.
+fn join<A: Send, B: Send>(a: impl FnOnce() -> A + Send, b: impl FnOnce() -> B + Send) -> (A, B) {
+    #[cfg(not(target_arch = "wasm32"))]
+    return rayon::join(a, b);
+    #[cfg(target_arch = "wasm32")]
+    return (a(), b());
 }
 
 /// The 1-degree direction bin of every spectrum entry (column-major layout of
