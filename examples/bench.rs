@@ -2,7 +2,9 @@
 //! reference and the fast steerable version) and for the whole scan, with 1, 2 and 3
 //! stripe directions. A benchmark, not a test: run it on a quiet machine.
 //!
-//! `cargo run --release --example bench`
+//! `cargo run --release --example bench` uses every core (the families of a frame, the
+//! filter's two inverse transforms and its per-family composition run at once);
+//! `RAYON_NUM_THREADS=1 cargo run --release --example bench` uses one.
 
 use std::time::Instant;
 use stripelight::filter::{reference, FamilyWindow, FilterMode, LogGradFilter, Restored};
@@ -12,17 +14,24 @@ use stripelight::scan::{ScanConfig, Scanner};
 use stripelight::sim::{self, Scene, SimConfig};
 use stripelight::{Calibration, PatternSpec};
 
+/// The median of `runs` timed calls, milliseconds: a shared machine's load comes in
+/// bursts, which a mean would carry.
 fn ms_per_run(runs: usize, mut f: impl FnMut()) -> f64 {
     f(); // warm up: first-touch of buffers, caches
-    let start = Instant::now();
-    for _ in 0..runs {
-        f();
-    }
-    start.elapsed().as_secs_f64() * 1000.0 / runs as f64
+    let mut times: Vec<f64> = (0..runs)
+        .map(|_| {
+            let start = Instant::now();
+            f();
+            start.elapsed().as_secs_f64() * 1000.0
+        })
+        .collect();
+    times.sort_by(f64::total_cmp);
+    times[times.len() / 2]
 }
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let calib = Calibration::demo();
+    println!("threads: {}", rayon::current_num_threads());
     println!("| directions | reference filter | fast filter | scan, direct | scan, loggrad |");
     println!("|---|---|---|---|---|");
     for directions in 1..=3 {
@@ -36,18 +45,18 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let windows = FamilyWindow::for_families(&scanner.predictions().iter().map(|p| p.angle).collect::<Vec<_>>());
         let mut filter = LogGradFilter::new(w, h)?;
         let mut out: Vec<Restored> = windows.iter().map(|_| Restored::new(w, h)).collect();
-        let fast = ms_per_run(20, || {
+        let fast = ms_per_run(21, || {
             let _ = filter.run(&linear, &windows, FilterMode::LogGrad, &mut out);
         });
         let start = Instant::now();
         reference::restore(&linear, &windows, true)?;
         let slow = start.elapsed().as_secs_f64() * 1000.0;
         scanner.set_filter(FilterMode::Direct);
-        let direct = ms_per_run(20, || {
+        let direct = ms_per_run(21, || {
             let _ = scanner.scan(&frame);
         });
         scanner.set_filter(FilterMode::LogGrad);
-        let loggrad = ms_per_run(20, || {
+        let loggrad = ms_per_run(21, || {
             let _ = scanner.scan(&frame);
         });
         println!("| {directions} | {slow:.0} ms | {fast:.1} ms | {direct:.1} ms | {loggrad:.1} ms |");
