@@ -15,19 +15,27 @@
 //! natively and its `simd128` kernels in WebAssembly, which sum in another order. Both
 //! give relative differences of about 1e-7 in the restored images. Such a difference
 //! can tip a threshold decision (a boundary kept or not, a window's vote) for a pixel
-//! that sits right at the threshold, so
-//! - the sets of decoded pixels may differ in at most [`MAX_DIFFERENT_PIXELS`] (0.1 %)
-//!   of the reference's decoded pixels, and
-//! - where both decode, depths differ by at most [`MAX_DEPTH_DIFFERENCE_MM`] (0.01 mm).
+//! that sits right at the threshold. The filter's per-cell angle choice (one of the
+//! paper's angles per 2x2 cell, `filter::ANGLE_STEP`) is such a decision too: where two
+//! angles' criteria tie, a flip restores the cell's few pixels at the neighbouring
+//! angle, which moves a boundary there by a fraction of a pixel. So
+//! - pixels decided differently, decoded on one side only or decoded on both with depths
+//!   more than [`MAX_DEPTH_DIFFERENCE_MM`] (0.01 mm) apart, may be at most
+//!   [`MAX_DIFFERENT_PIXELS`] (0.1 %) of the reference's decoded pixels;
+//! - even there depths differ by at most [`MAX_FLIPPED_DEPTH_MM`] (1.2 mm, half a
+//!   projector pixel of stripe coordinate): a sub-pixel shift, never another stripe's
+//!   identity (a whole stripe is 8 projector pixels, about 19 mm);
+//! - everywhere else depths differ by at most 0.01 mm.
 //!   Depth moves about 2.4 mm per projector pixel of stripe coordinate on this rig
 //!   (z²/(f·b) = 750²/(1150·200)), so 0.01 mm allows a sub-pixel boundary to move by
 //!   4e-3 projector pixels, far more than 1e-7 relative differences move it, and far
 //!   less than a real change of the pipeline moves it. (An f32 depth near 750 mm has a
 //!   resolution of 6e-5 mm.)
 //!
-//! Measured when the reference was made: the browser decoded the same 239 255 pixels
-//! as the native build, with depths at most 7.9e-4 mm apart; the tolerance is about 12
-//! times that, for the pipeline's coming changes.
+//! Measured when the reference was first made (full-resolution angle choice): the
+//! browser decoded the same 239 255 pixels as the native build, with depths at most
+//! 7.9e-4 mm apart. With the per-cell angle choice: the same 241 558 pixels, 22 of them
+//! (0.009 %) more than 0.01 mm apart, by up to 0.79 mm, all others within 0.01 mm.
 //!
 //! Every cloud point is its depth map pixel's camera ray times its depth (checked
 //! below), so the clouds agree as the depth maps do: |Δx|, |Δy| ≤ 0.42 · 0.01 mm (the
@@ -60,10 +68,14 @@ const SPEC: &str = include_str!("data/pattern2.json");
 /// The native scan of `FRAME`: depth in mm, NaN where nothing decoded.
 const REFERENCE: &[u8] = include_bytes!("data/sphere2-scan.pfm");
 
-/// Largest share of the reference's decoded pixels that may decode on one target only.
+/// Largest share of the reference's decoded pixels that may be decided differently
+/// (decoded on one target only, or with depths beyond [`MAX_DEPTH_DIFFERENCE_MM`]).
 const MAX_DIFFERENT_PIXELS: f64 = 0.001;
-/// Largest depth difference where both decode, mm.
+/// Largest depth difference of a pixel decided the same way on both targets, mm.
 const MAX_DEPTH_DIFFERENCE_MM: f32 = 0.01;
+/// Largest depth difference of any pixel both decode, mm: half a projector pixel of
+/// stripe coordinate on this rig (about 2.4 mm per projector pixel).
+const MAX_FLIPPED_DEPTH_MM: f32 = 1.2;
 /// Least share of the frame's pixels the reference decodes: a reference that decodes
 /// nothing would make any scan that decodes nothing "agree".
 const MIN_REFERENCE_COVERAGE: f64 = 0.2;
@@ -106,7 +118,7 @@ fn this_target_scans_the_stored_frame_as_the_native_build_did() {
     let reference = reference(depth);
     assert_eq!(reference.size(), depth.size(), "the reference is not of the frame's size");
 
-    let (mut decoded_ref, mut decoded, mut only_one, mut max_dz) = (0usize, 0usize, 0usize, 0f32);
+    let (mut decoded_ref, mut decoded, mut only_one, mut max_dz, mut beyond) = (0usize, 0usize, 0usize, 0f32, 0usize);
     let mut worst = None;
     for (i, (&z, &r)) in depth.pixels().iter().zip(reference.pixels()).enumerate() {
         decoded_ref += !r.is_nan() as usize;
@@ -115,6 +127,7 @@ fn this_target_scans_the_stored_frame_as_the_native_build_did() {
             (true, true) => {}
             (false, false) => {
                 let dz = (z - r).abs();
+                beyond += !(dz <= MAX_DEPTH_DIFFERENCE_MM) as usize;
                 if !(dz <= max_dz) {
                     (max_dz, worst) = (dz, Some(i));
                 }
@@ -125,17 +138,18 @@ fn this_target_scans_the_stored_frame_as_the_native_build_did() {
     let (w, _) = depth.size();
     report(&format!(
         "parity: {decoded} pixels decoded here, {decoded_ref} in the native reference, {only_one} in one only, \
-         largest depth difference {max_dz:.2e} mm (at pixel {:?})",
+         largest depth difference {max_dz:.2e} mm (at pixel {:?}), {beyond} pixels beyond the tolerance",
         worst.map(|i| (i % w, i / w))
     ));
     let pixels = depth.pixels().len() as f64;
     assert!(decoded_ref as f64 >= MIN_REFERENCE_COVERAGE * pixels, "the reference decodes only {decoded_ref} pixels");
     assert!(
-        only_one as f64 <= MAX_DIFFERENT_PIXELS * decoded_ref as f64,
-        "{only_one} pixels decode on one side only (at most {:.0} allowed)",
+        (only_one + beyond) as f64 <= MAX_DIFFERENT_PIXELS * decoded_ref as f64,
+        "{only_one} pixels decode on one side only and {beyond} differ by more than {MAX_DEPTH_DIFFERENCE_MM} mm \
+         (at most {:.0} in all allowed)",
         MAX_DIFFERENT_PIXELS * decoded_ref as f64
     );
-    assert!(max_dz <= MAX_DEPTH_DIFFERENCE_MM, "depths differ by up to {max_dz} mm at pixel {:?}", worst.map(|i| (i % w, i / w)));
+    assert!(max_dz <= MAX_FLIPPED_DEPTH_MM, "depths differ by up to {max_dz} mm at pixel {:?}", worst.map(|i| (i % w, i / w)));
 
     // The cloud is the depth map: each point is its pixel's ray times its depth, with its
     // pixel's colour, and every decoded pixel has its point.
