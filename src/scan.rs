@@ -420,25 +420,26 @@ impl Scanner {
             ms[3] = clock.split();
         };
         let r = &mut self.result;
+        // The same zip of every family's parts: in parallel natively, in order in
+        // WebAssembly.
+        macro_rules! each_family {
+            ($s:ident, $iter:ident) => {
+                $s.restored
+                    .$iter()
+                    .zip($s.segmentations.$iter().zip($s.decoders.$iter().zip($s.coords.$iter().zip(
+                        $s.weights.$iter().zip(r.family_depth.$iter().zip($s.family_scratch.$iter().zip($s.family_ms.$iter()))),
+                    ))))
+                    .enumerate()
+                    .for_each(family)
+            };
+        }
         #[cfg(not(target_arch = "wasm32"))]
         {
             use rayon::prelude::*;
-            self.restored
-                .par_iter_mut()
-                .zip(self.segmentations.par_iter_mut().zip(self.decoders.par_iter_mut().zip(self.coords.par_iter_mut().zip(
-                    self.weights.par_iter_mut().zip(r.family_depth.par_iter_mut().zip(self.family_scratch.par_iter_mut().zip(self.family_ms.par_iter_mut()))),
-                ))))
-                .enumerate()
-                .for_each(family);
+            each_family!(self, par_iter_mut);
         }
         #[cfg(target_arch = "wasm32")]
-        self.restored
-            .iter_mut()
-            .zip(self.segmentations.iter_mut().zip(self.decoders.iter_mut().zip(self.coords.iter_mut().zip(
-                self.weights.iter_mut().zip(r.family_depth.iter_mut().zip(self.family_scratch.iter_mut().zip(self.family_ms.iter_mut()))),
-            ))))
-            .enumerate()
-            .for_each(family);
+        each_family!(self, iter_mut);
         // Each family's own stage times (overlapping when the families ran at once;
         // `segment` includes the smoothing along the stripes of three families), then
         // the wall time of all of them.

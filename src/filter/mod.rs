@@ -669,14 +669,13 @@ impl Planes<'_> {
                 }
                 *choice = index;
             }
-        } else {
-            choice.iter_mut().for_each(|c| *c = 0);
         }
         let (w, gw) = (self.width, self.gw);
         for y in 0..self.height {
             let grid_row = &choice[(y / ANGLE_STEP) * gw..(y / ANGLE_STEP + 1) * gw];
             for x in 0..w {
-                let (a, al, be) = candidates[grid_row[x / ANGLE_STEP] as usize];
+                // One candidate: the dominant angle, whatever the buffer holds.
+                let (a, al, be) = if count > 1 { candidates[grid_row[x / ANGLE_STEP] as usize] } else { candidates[0] };
                 let i = y * w + x;
                 r.angle[i] = a;
                 for ch in 0..3 {

@@ -303,26 +303,19 @@ impl PatternSpec {
                 problem: format!("{needed} stripes are more than any window of up to 8 makes unique"),
             })?;
         let low = [0.25, 0.35, 0.45][directions - 1];
-        let spec = PatternSpec {
-            format: SPEC_FORMAT.into(),
-            version: SPEC_VERSION,
-            width,
-            height,
-            encoding_gamma: 2.2,
-            palette: binary_palette(low),
-            background: [0.0; 3],
-            sequence,
-            window,
-            families,
-        };
         // What is generated must read back; if not, the generator is wrong, not the input.
-        spec.validate().map_err(|e| Error::Internal(format!("the generated pattern is invalid: {e}")))?;
-        Ok(spec)
+        Self::validated(width, height, binary_palette(low), [0.0; 3], sequence, window, families)
+            .map_err(|e| Error::Internal(format!("the generated pattern is invalid: {e}")))
     }
 
     /// A validated spec of one stripe family on a `width` x `height` projector (a
     /// pattern from elsewhere): encoding gamma 2.2 unless changed afterwards.
     pub fn one_family(width: u32, height: u32, palette: Vec<[f64; 3]>, background: [f64; 3], sequence: Vec<u8>, window: usize, family: Family) -> Result<Self> {
+        Self::validated(width, height, palette, background, sequence, window, vec![family])
+    }
+
+    /// A spec of the current format with encoding gamma 2.2, validated.
+    fn validated(width: u32, height: u32, palette: Vec<[f64; 3]>, background: [f64; 3], sequence: Vec<u8>, window: usize, families: Vec<Family>) -> Result<Self> {
         let spec = PatternSpec {
             format: SPEC_FORMAT.into(),
             version: SPEC_VERSION,
@@ -333,7 +326,7 @@ impl PatternSpec {
             background,
             sequence,
             window,
-            families: vec![family],
+            families,
         };
         spec.validate()?;
         Ok(spec)

@@ -230,20 +230,19 @@ fn sphere_scene() -> Scene {
         [0.7, 0.08, 0.65],  // magenta
         [0.75, 0.75, 0.75], // white
     ];
+    checker_sphere(colours, 3)
+}
+
+/// A sphere of radius 150 mm at 800 mm in 22.5-degree squares of longitude and
+/// latitude (`stride` apart in `colours` from one row to the next), before a light
+/// grey wall at 950 mm.
+fn checker_sphere(colours: Vec<[f32; 3]>, stride: usize) -> Scene {
     let radius = 150.0;
     Scene {
         objects: vec![
             Object {
-                shape: Shape::Sphere {
-                    center: DVec3::new(0.0, 0.0, 800.0),
-                    radius,
-                },
-                // 22.5-degree squares of longitude and latitude.
-                texture: Texture::Checker {
-                    colours,
-                    cell: radius * std::f64::consts::PI / 8.0,
-                    stride: 3,
-                },
+                shape: Shape::Sphere { center: DVec3::new(0.0, 0.0, 800.0), radius },
+                texture: Texture::Checker { colours, cell: radius * std::f64::consts::PI / 8.0, stride },
             },
             plain(wall(950.0), [0.7; 3]),
         ],
@@ -429,24 +428,8 @@ fn colorchecker_scene() -> Scene {
 }
 
 fn dye_sphere_scene() -> Scene {
-    let radius = 150.0;
-    Scene {
-        objects: vec![
-            Object {
-                shape: Shape::Sphere {
-                    center: DVec3::new(0.0, 0.0, 800.0),
-                    radius,
-                },
-                // 22.5-degree squares; stride 2 keeps vertical neighbours different.
-                texture: Texture::Checker {
-                    colours: pigments::DYES.to_vec(),
-                    cell: radius * std::f64::consts::PI / 8.0,
-                    stride: 2,
-                },
-            },
-            plain(wall(950.0), [0.7; 3]),
-        ],
-    }
+    // Stride 2 keeps vertical neighbours different.
+    checker_sphere(pigments::DYES.to_vec(), 2)
 }
 
 fn dye_paper_scene() -> Result<Scene> {
