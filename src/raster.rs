@@ -198,3 +198,184 @@ pub fn to_rgba8(src: &Image<[u8; 3]>) -> Vec<u8> {
     }
     out
 }
+
+/// JFIF's full-range BT.601 YCbCr (ITU-T T.871) of an 8-bit RGB pixel: the transform
+/// JPEG files and most webcam streams use. Cb and Cr are centred on 128.
+pub fn to_ycbcr(p: [u8; 3]) -> [f32; 3] {
+    let [r, g, b] = p.map(|x| x as f32);
+    [
+        0.299 * r + 0.587 * g + 0.114 * b,
+        128.0 - 0.168_736 * r - 0.331_264 * g + 0.5 * b,
+        128.0 + 0.5 * r - 0.418_688 * g - 0.081_312 * b,
+    ]
+}
+
+/// The inverse of [`to_ycbcr`], rounded and clamped to 8 bits.
+pub fn from_ycbcr(y: f32, cb: f32, cr: f32) -> [u8; 3] {
+    let (cb, cr) = (cb - 128.0, cr - 128.0);
+    let rgb = [y + 1.402 * cr, y - 0.344_136 * cb - 0.714_136 * cr, y + 1.772 * cb];
+    rgb.map(|x| x.round().clamp(0.0, 255.0) as u8)
+}
+
+/// How a frame's colour was sampled: per axis, whether the chroma comes in pairs of
+/// pixels that share one value (as a 4:2:0 or 4:2:2 stream shows it after a decoder
+/// that repeats each chroma sample instead of interpolating). Pairs start at even
+/// coordinates, as in every JPEG and YUV layout.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct ChromaPairs {
+    /// Columns 2k and 2k+1 share their chroma.
+    pub horizontal: bool,
+    /// Rows 2k and 2k+1 share their chroma.
+    pub vertical: bool,
+}
+
+/// A change of chroma between neighbouring pixels (|ΔCb| + |ΔCr|, 8-bit levels) at
+/// least this large is a colour edge: stripe boundaries change it by 40 to 200 on the
+/// simulator's scenes; JPEG's ringing at quality 80 rarely reaches it.
+const EDGE_CHROMA_CHANGE: f32 = 16.0;
+
+/// Repeated chroma counts as found along an axis when colour edges fall inside pixel
+/// pairs less than this share as often as between pairs. Full-resolution colour gives
+/// about 1, and 0.6 to 1 after JPEG at quality 80; repeated 4:2:0 chroma gives 0 as
+/// decoded and below 0.1 after JPEG at quality 80 (measured on the simulator's scenes;
+/// the tests check both sides).
+const PAIR_RATIO: f32 = 0.3;
+
+/// ... and only when at least this many colour edges were seen between pairs along
+/// the axis: fewer, and the frame has too little colour detail to tell.
+const PAIR_MIN_EDGES: usize = 100;
+
+/// Rows (for the horizontal test) or columns (for the vertical one) sampled by
+/// [`detect_chroma_pairs`]: one in this many.
+const PAIR_SAMPLE_STEP: usize = 4;
+
+/// JPEG's block size: a change between blocks may be the codec's own step, so pairs
+/// straddling a block edge are left out of [`detect_chroma_pairs`]'s count.
+const JPEG_BLOCK: usize = 8;
+
+impl ChromaPairs {
+    /// The usual name of the sampling: "4:4:4" (none), "4:2:2", "4:4:0" or "4:2:0".
+    pub fn name(self) -> &'static str {
+        match (self.horizontal, self.vertical) {
+            (false, false) => "4:4:4",
+            (true, false) => "4:2:2",
+            (false, true) => "4:4:0",
+            (true, true) => "4:2:0",
+        }
+    }
+}
+
+/// Whether `frame`'s chroma comes in repeated pairs along each axis: counts the colour
+/// edges ([`EDGE_CHROMA_CHANGE`]) between the two pixels of a pair and between
+/// neighbouring pairs (not across JPEG blocks), on one row (column) in
+/// [`PAIR_SAMPLE_STEP`].
+///
+/// ```
+/// use stripelight::raster::{detect_chroma_pairs, ChromaPairs};
+/// use stripelight::Image;
+/// // Colour changes every 2 columns, starting at even ones: repeated pairs across.
+/// let img = Image::from_vec(128, 16, (0..2048).map(|i| if (i % 128) / 2 % 2 == 0 { [200, 40, 40] } else { [40, 40, 200] }).collect()).unwrap();
+/// assert_eq!(detect_chroma_pairs(&img), ChromaPairs { horizontal: true, vertical: false });
+/// ```
+pub fn detect_chroma_pairs(frame: &Image<[u8; 3]>) -> ChromaPairs {
+    let (w, h) = frame.size();
+    let chroma = |u: usize, v: usize| {
+        let c = to_ycbcr(frame.get(u, v));
+        [c[1], c[2]]
+    };
+    let edge = |a: [f32; 2], b: [f32; 2]| (a[0] - b[0]).abs() + (a[1] - b[1]).abs() >= EDGE_CHROMA_CHANGE;
+    // Along a line of `len` pixels whose chroma `at(t)` gives: colour edges inside
+    // pairs, and between pairs within a JPEG block.
+    let count = |len: usize, at: &dyn Fn(usize) -> [f32; 2], counts: &mut [usize; 2]| {
+        if len == 0 {
+            return;
+        }
+        let mut prev = at(0);
+        for t in 1..len {
+            let c = at(t);
+            if t % 2 == 1 {
+                counts[0] += edge(prev, c) as usize;
+            } else if t % JPEG_BLOCK != 0 {
+                counts[1] += edge(prev, c) as usize;
+            }
+            prev = c;
+        }
+    };
+    let decide = |[inside, across]: [usize; 2]| {
+        // Inside pairs there are 4 chances per JPEG block for 3 between pairs.
+        across >= PAIR_MIN_EDGES && (inside as f32 * 3.0 / 4.0) < PAIR_RATIO * across as f32
+    };
+    let mut rows = [0; 2];
+    for v in (0..h).step_by(PAIR_SAMPLE_STEP) {
+        count(w, &|u| chroma(u, v), &mut rows);
+    }
+    let mut columns = [0; 2];
+    for u in (0..w).step_by(PAIR_SAMPLE_STEP) {
+        count(h, &|v| chroma(u, v), &mut columns);
+    }
+    ChromaPairs { horizontal: decide(rows), vertical: decide(columns) }
+}
+
+/// Interpolate repeated chroma back to one value per pixel, keeping every pixel's own
+/// luma: each pair's (block's) mean Cb and Cr is taken to sit at its centre, and a
+/// pixel gets 3/4 of its own block's value and 1/4 of the neighbouring block's on its
+/// side, along each axis in `pairs` (bilinear interpolation between block centres, the
+/// "fancy upsampling" of JPEG decoders; the frame's edges repeat their last block).
+///
+/// Why: a decoder that repeats each chroma sample moves every colour edge to an even
+/// pixel boundary, up to a pixel from where the stripe edge is; the stripe boundaries
+/// found from such colour wander by that much (on the simulator's plane, 4 % of one
+/// family's depths were more than 2 mm off). Interpolated chroma puts the edge back
+/// within a fifth of a pixel on average. `blocks` is scratch space, resized here.
+pub fn interpolate_chroma_into(
+    frame: &Image<[u8; 3]>,
+    pairs: ChromaPairs,
+    blocks: &mut Vec<[f32; 2]>,
+    out: &mut Image<[u8; 3]>,
+) {
+    let (w, h) = frame.size();
+    debug_assert_eq!(out.size(), (w, h));
+    let (sx, sy) = (1 + pairs.horizontal as usize, 1 + pairs.vertical as usize);
+    let (bw, bh) = (w.div_ceil(sx), h.div_ceil(sy));
+    blocks.clear();
+    blocks.resize(bw * bh, [0.0; 2]);
+    for by in 0..bh {
+        for bx in 0..bw {
+            let (mut sum, mut n) = ([0f32; 2], 0f32);
+            for v in by * sy..((by + 1) * sy).min(h) {
+                for u in bx * sx..((bx + 1) * sx).min(w) {
+                    let c = to_ycbcr(frame.get(u, v));
+                    sum[0] += c[1];
+                    sum[1] += c[2];
+                    n += 1.0;
+                }
+            }
+            blocks[by * bw + bx] = [sum[0] / n, sum[1] / n];
+        }
+    }
+    // The neighbouring block along an axis of block size `s`, for a pixel at `p` in
+    // block `b` of `count`: on the side of the pixel, clamped to the frame.
+    let neighbour = |p: usize, b: usize, s: usize, count: usize| {
+        if s == 1 {
+            b
+        } else if p % 2 == 0 {
+            b.saturating_sub(1)
+        } else {
+            (b + 1).min(count - 1)
+        }
+    };
+    // Weights of the own and the neighbouring block along an axis.
+    let weights = |s: usize| if s == 1 { (1.0, 0.0) } else { (0.75f32, 0.25f32) };
+    let ((ox, nx), (oy, ny)) = (weights(sx), weights(sy));
+    for v in 0..h {
+        let (by, bn) = (v / sy, neighbour(v, v / sy, sy, bh));
+        for u in 0..w {
+            let (bx, bm) = (u / sx, neighbour(u, u / sx, sx, bw));
+            let at = |x: usize, y: usize| blocks[y * bw + x];
+            let (a, b, c, d) = (at(bx, by), at(bm, by), at(bx, bn), at(bm, bn));
+            let mix = |k: usize| oy * (ox * a[k] + nx * b[k]) + ny * (ox * c[k] + nx * d[k]);
+            let luma = to_ycbcr(frame.get(u, v))[0];
+            *out.get_mut(u, v) = from_ycbcr(luma, mix(0), mix(1));
+        }
+    }
+}

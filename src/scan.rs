@@ -14,7 +14,7 @@ use crate::error::{Error, Result};
 use crate::filter::{smooth_along_stripes, FamilyWindow, FilterMode, LogGradFilter, Restored};
 use crate::merge;
 use crate::pattern::PatternSpec;
-use crate::raster::{gamma_lut, rgb8_to_linear_lut, rgba8_into, Image, Rgb};
+use crate::raster::{detect_chroma_pairs, gamma_lut, interpolate_chroma_into, rgb8_to_linear_lut, rgba8_into, ChromaPairs, Image, Rgb};
 use crate::segment::{pixel_flags_into, PixelFlags, ScanAxis, Segmentation};
 use crate::stages::{Stage, StageInputs};
 use crate::triangulate::Triangulator;
@@ -70,6 +70,9 @@ pub struct ScanStats {
     pub merged: usize,
     /// Pixels bright enough and not saturated.
     pub usable: usize,
+    /// The frame's chroma sampling as found ([`ChromaPairs::name`]): "4:4:4", or
+    /// "4:2:0" (or "4:2:2", "4:4:0") when repeated chroma was found and interpolated.
+    pub chroma: &'static str,
     /// Milliseconds per stage, when the configuration has a clock.
     pub stage_ms: Vec<(&'static str, f64)>,
 }
@@ -163,6 +166,10 @@ pub struct Scanner {
     /// Inputs of the last frame and the stages' working buffers, kept for
     /// [`Scanner::stages`] (they are needed anyway: keeping them costs nothing).
     frame: Image<[u8; 3]>,
+    /// The frame with repeated chroma interpolated (when the frame has it), and the
+    /// chroma blocks' means behind it.
+    interpolated: Image<[u8; 3]>,
+    chroma_blocks: Vec<[f32; 2]>,
     linear: Image<Rgb>,
     flags: Vec<PixelFlags>,
     filter: LogGradFilter,
@@ -303,6 +310,8 @@ impl Scanner {
             family_scratch: (0..n).map(|_| Vec::with_capacity(w * h)).collect(),
             family_ms: vec![[0.0; 4]; n],
             frame: Image::new(w, h, [0; 3]),
+            interpolated: Image::new(w, h, [0; 3]),
+            chroma_blocks: Vec::with_capacity(w * h),
             linear: Image::new(w, h, [0.0; 3]),
             flags: vec![0; w * h],
             result: ScanResult {
@@ -379,7 +388,16 @@ impl Scanner {
         let mut clock = StageClock::start(self.config.clock);
         let mut laps = std::mem::take(&mut self.result.stats.stage_ms);
         laps.clear();
-        rgb8_to_linear_lut(&self.frame, &self.lut, &mut self.linear);
+        // A webcam's 4:2:0 (or 4:2:2) chroma, repeated over pixel pairs by the decoder,
+        // would put every colour edge on an even pixel boundary: interpolate it first.
+        let pairs = detect_chroma_pairs(&self.frame);
+        let colour = if pairs == ChromaPairs::default() {
+            &self.frame
+        } else {
+            interpolate_chroma_into(&self.frame, pairs, &mut self.chroma_blocks, &mut self.interpolated);
+            &self.interpolated
+        };
+        rgb8_to_linear_lut(colour, &self.lut, &mut self.linear);
         if let Some(m) = self.unmix {
             for p in self.linear.pixels_mut() {
                 *p = (m * glam::Vec3::from_array(*p)).max(glam::Vec3::ZERO).to_array();
@@ -482,6 +500,7 @@ impl Scanner {
         // Filled in place: the per-frame path reuses the stats' vectors and string.
         let stats = &mut r.stats;
         (stats.width, stats.height, stats.merged, stats.usable) = (w, h, r.cloud.len(), usable);
+        stats.chroma = pairs.name();
         stats.filter.clear();
         {
             use std::fmt::Write;

@@ -107,6 +107,44 @@ fn bad_input_gives_clear_errors() {
 }
 }
 
+both_targets! {
+/// A webcam's 4:2:0 chroma, repeated over 2 x 2 pixels by its decoder (the simulator's
+/// webcam, with and without JPEG at quality 80), is found, and full-resolution colour
+/// (with and without JPEG) is left alone, on a plain and a colourful scene. Scanned,
+/// the interpolated webcam frame of the plane decodes 99.6 % with 0.03 % outliers and
+/// an RMSE of 0.61 mm (96.9 %, 0.61 % and 1.06 mm when the repeated chroma was decoded
+/// as it came).
+fn repeated_chroma_is_found_and_interpolated() {
+    use stripelight::eval::measure;
+    use stripelight::raster::detect_chroma_pairs;
+    use stripelight::sim::{self, render, Scene};
+    let calib = Calibration::demo();
+    let spec = PatternSpec::from_json(SPEC).unwrap();
+    let cfg = SimConfig { seed: 1, supersample: 1, projector_gamma: spec.encoding_gamma as f32, ..SimConfig::default() };
+    for scene in ["plane", "paper"] {
+        let truth = render(&Scene::builtin(scene).unwrap(), &calib, &spec.render_rgb8(), &cfg).unwrap();
+        for (chroma_420, jpeg, expected) in [(false, false, "4:4:4"), (true, false, "4:2:0"), (false, true, "4:4:4"), (true, true, "4:2:0")] {
+            let mut frame = truth.image.clone();
+            if chroma_420 {
+                sim::chroma_420(&mut frame);
+            }
+            if jpeg {
+                frame = sim::jpeg_round_trip(&frame, 80).unwrap();
+            }
+            let found = detect_chroma_pairs(&frame).name();
+            assert_eq!(found, expected, "{scene}, 4:2:0 {chroma_420}, JPEG {jpeg}");
+            if scene == "plane" && chroma_420 && jpeg {
+                let mut scanner = Scanner::new(spec.clone(), calib.clone(), sample_config()).unwrap();
+                let result = scanner.scan(&frame).unwrap();
+                assert_eq!(result.stats.chroma, "4:2:0");
+                let m = measure(&result.depth, &truth);
+                assert!(m.coverage > 0.97 && m.outliers < 0.002 && m.rmse_mm < 0.75, "{m:?}");
+            }
+        }
+    }
+}
+}
+
 #[cfg(not(target_arch = "wasm32"))]
 mod native {
     use stripelight::eval::{evaluate, Row};

@@ -4,7 +4,7 @@
 //! encoder does to the 8-bit frame: 4:2:0 chroma subsampling and JPEG.
 
 use crate::error::{Error, Result};
-use crate::raster::{Image, Rgb};
+use crate::raster::{from_ycbcr, to_ycbcr, Image, Rgb};
 
 /// The 8-bit value of a clipped channel: the sensor's full scale.
 pub const CLIPPED: u8 = 255;
@@ -180,23 +180,6 @@ pub(crate) fn quantize(
             o[c] = code(x);
         }
     }
-}
-
-/// JFIF's full-range BT.601 YCbCr (ITU-T T.871), the transform JPEG files use.
-fn to_ycbcr(p: [u8; 3]) -> [f32; 3] {
-    let [r, g, b] = p.map(|x| x as f32);
-    [
-        0.299 * r + 0.587 * g + 0.114 * b,
-        128.0 - 0.168_736 * r - 0.331_264 * g + 0.5 * b,
-        128.0 + 0.5 * r - 0.418_688 * g - 0.081_312 * b,
-    ]
-}
-
-/// The inverse of [`to_ycbcr`], rounded and clamped to 8 bits.
-fn from_ycbcr(y: f32, cb: f32, cr: f32) -> [u8; 3] {
-    let (cb, cr) = (cb - 128.0, cr - 128.0);
-    let rgb = [y + 1.402 * cr, y - 0.344_136 * cb - 0.714_136 * cr, y + 1.772 * cb];
-    rgb.map(|x| x.round().clamp(0.0, 255.0) as u8)
 }
 
 /// 4:2:0 chroma subsampling of an 8-bit (gamma-encoded) frame, in place: every pixel
