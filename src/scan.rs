@@ -430,6 +430,7 @@ impl Scanner {
             seg.run(restored, linear, flags, pred.axis, pred.period);
             ms[0] = clock.split();
             decoder.run(seg);
+            decoder.smooth_positions(seg);
             decoder.stripe_coords_into(seg, w, MAX_STRIPE_PERIODS * pred.period, coords);
             ms[1] = clock.split();
             triangulator.family_depth_into(k, coords, depth.pixels_mut(), weights);
