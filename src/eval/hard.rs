@@ -379,8 +379,13 @@ impl HardEval {
         Ok(m)
     }
 
-    /// Render, scan and measure `scene` under `cond`, with its Gray-code reference.
-    pub fn run(&mut self, scene_name: &str, cond: &'static Condition) -> Result<HardRun> {
+    /// Render and scan `scene` under `cond` (no reference): what the one-shot scanner
+    /// decodes, measured against the ground truth.
+    pub fn one_shot(&mut self, scene_name: &str, cond: &'static Condition) -> Result<OneShot> {
+        Ok(self.render_and_scan(scene_name, cond)?.0)
+    }
+
+    fn render_and_scan(&mut self, scene_name: &str, cond: &'static Condition) -> Result<(OneShot, View, SimConfig)> {
         let crosstalk = self.crosstalk(cond)?;
         if !self.setups.contains_key(cond.name) {
             let calib = cond.rig()?;
@@ -389,22 +394,37 @@ impl HardEval {
             self.setups.insert(cond.name, (calib, spec, pattern));
         }
         let (calib, spec, pattern) = &self.setups[cond.name];
-        let (calib, spec, pattern) = (calib.clone(), spec.clone(), pattern.clone());
         let scene = Scene::builtin(scene_name)?;
         let mut cfg = cond.camera(self.seed, spec.encoding_gamma as f32);
-        let view = View::new(&scene, &calib, &cfg)?;
+        let view = View::new(&scene, calib, &cfg)?;
         if let Some(f) = cond.clip_fraction {
-            cfg.exposure = view.exposure_for_clipping(&pattern, &cfg, f)?;
+            cfg.exposure = view.exposure_for_clipping(pattern, &cfg, f)?;
         }
         let mut frame = Image::new(0, 0, [0u8; 3]);
-        view.photograph_into(&pattern, &cfg, &mut Scratch::default(), &mut frame)?;
-        let truth = view.truth().clone();
-        let clipped = clipped_fraction(&frame, &view.bright_stripe_mask(&pattern, &cfg));
+        view.photograph_into(pattern, &cfg, &mut Scratch::default(), &mut frame)?;
+        let clipped = clipped_fraction(&frame, &view.bright_stripe_mask(pattern, &cfg));
 
         let config = ScanConfig { filter: FilterMode::LogGrad, crosstalk, ..ScanConfig::default() };
         let mut scanner = Scanner::new(spec.clone(), calib.clone(), config)?;
-        let one_shot_depth = scanner.scan(&frame)?.depth.clone();
-        drop(scanner);
+        let depth = scanner.scan(&frame)?.depth.clone();
+        let truth = view.truth();
+        let one_shot = OneShot {
+            metrics: measure(&depth, truth),
+            subject_coverage: masked_coverage(&depth, &subject_mask(&scene, calib, truth)),
+            clipped,
+            crosstalk,
+            depth,
+        };
+        Ok((one_shot, view, cfg))
+    }
+
+    /// Render, scan and measure `scene` under `cond`, with its Gray-code reference.
+    pub fn run(&mut self, scene_name: &str, cond: &'static Condition) -> Result<HardRun> {
+        let (one_shot, view, cfg) = self.render_and_scan(scene_name, cond)?;
+        let (calib, spec, _) = &self.setups[cond.name];
+        let (calib, stripe_width) = (calib.clone(), spec.families[0].stripe_width);
+        let scene = Scene::builtin(scene_name)?;
+        let truth = view.truth().clone();
 
         // The reference depends on the rig, the camera and (through the clipping
         // exposure) the one-shot pattern, not on the stripes otherwise.
@@ -429,16 +449,30 @@ impl HardEval {
             scene: scene_name.to_string(),
             condition: cond.name.to_string(),
             camera: (w, h),
-            stripe_px: median_stripe_px(&truth, spec.families[0].stripe_width),
+            stripe_px: median_stripe_px(&truth, stripe_width),
             lit_fraction: lit as f64 / (w * h).max(1) as f64,
-            clipped,
-            crosstalk,
-            one_shot: measure(&one_shot_depth, &truth),
+            clipped: one_shot.clipped,
+            crosstalk: one_shot.crosstalk,
+            one_shot: one_shot.metrics,
             gray: measure(&gray_depth, &truth),
-            subject_coverage: (masked_coverage(&one_shot_depth, &subject), masked_coverage(&gray_depth, &subject)),
+            subject_coverage: (one_shot.subject_coverage, masked_coverage(&gray_depth, &subject)),
         };
-        Ok(HardRun { row, one_shot_depth, gray_depth, truth })
+        Ok(HardRun { row, one_shot_depth: one_shot.depth, gray_depth, truth })
     }
+}
+
+/// A one-shot scan of a scene under a condition ([`HardEval::one_shot`]).
+pub struct OneShot {
+    /// The merged depth against the ground truth.
+    pub metrics: Metrics,
+    /// Coverage of the lit pixels on the scene's objects ([`subject_mask`]).
+    pub subject_coverage: f64,
+    /// Bright-stripe pixels clipped in at least one channel ([`clipped_fraction`]).
+    pub clipped: f64,
+    /// The colour mixing the scanner was told (measured).
+    pub crosstalk: Crosstalk,
+    /// The merged depth.
+    pub depth: Image<f32>,
 }
 
 /// The coverage goal of issue 10 for a scene, as a share of the Gray-code reference's

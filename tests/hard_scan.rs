@@ -1,0 +1,43 @@
+//! Regression guards on the hard simulator (issue 10): the one-shot scan of the hard
+//! scenes under the hard conditions, as `stripelight eval --hard` runs it (two
+//! directions, `loggrad`, colour mixing measured from white-card frames), must not
+//! decode less or invent more than it did when these figures were written. Each
+//! floor is the coverage measured then less one point, each ceiling the outlier share
+//! measured then plus 0.15 points: room for the browser's floating-point differences
+//! (the parity test bounds them), none for a real regression. Where the decoder gets
+//! better, raise them.
+
+#[macro_use]
+mod support;
+
+#[cfg(target_arch = "wasm32")]
+wasm_bindgen_test::wasm_bindgen_test_configure!(run_in_browser);
+
+use stripelight::eval::hard::{condition, HardEval};
+
+/// (scene, condition, coverage measured, outliers measured), shares of 1.
+const MEASURED: &[(&str, &str, f64, f64)] = &[
+    ("colorchecker", "default", 0.7842, 0.0090),
+    ("sphere-dye", "default", 0.7698, 0.0114),
+    ("bag", "default", 0.5171, 0.0051),
+    ("paper", "webcam", 0.8982, 0.0175),
+    ("skin", "clipped", 0.9173, 0.0024),
+    ("wall", "partial", 0.9951, 0.0010),
+    ("occluders", "world", 0.8898, 0.0144),
+];
+
+both_targets! {
+/// Coverage and outliers of the guarded (scene, condition) pairs.
+fn hard_scenes_do_not_regress() {
+    let mut eval = HardEval::new(1);
+    let mut failures = Vec::new();
+    for &(scene, cond, coverage, outliers) in MEASURED {
+        let m = eval.one_shot(scene, condition(cond).unwrap()).unwrap().metrics;
+        eprintln!("{scene}/{cond}: coverage {:.4}, outliers {:.4}", m.coverage, m.outliers);
+        if m.coverage < coverage - 0.01 || m.outliers > outliers + 0.0015 {
+            failures.push(format!("{scene}/{cond}: coverage {:.4} (was {coverage}), outliers {:.4} (was {outliers})", m.coverage, m.outliers));
+        }
+    }
+    assert!(failures.is_empty(), "{failures:#?}");
+}
+}
