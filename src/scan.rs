@@ -62,7 +62,8 @@ pub struct ScanStats {
     pub width: usize,
     /// Frame height, pixels.
     pub height: usize,
-    /// The filter used.
+    /// The filter that ran ([`FilterMode::effective`]: `direct` with three families
+    /// runs `loggrad`).
     pub filter: String,
     /// Pixels with a depth, per family.
     pub decoded: Vec<usize>,
@@ -505,7 +506,7 @@ impl Scanner {
         stats.filter.clear();
         {
             use std::fmt::Write;
-            let _ = write!(stats.filter, "{}", self.config.filter);
+            let _ = write!(stats.filter, "{}", self.config.filter.effective(families));
         }
         stats.stage_ms = laps;
         clock.lap("cloud", &mut r.stats.stage_ms);
