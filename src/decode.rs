@@ -79,9 +79,18 @@ pub struct Decoder {
     used_codes: CodeMask,
     candidates: Vec<i32>,
     votes: Vec<(i32, u8, bool)>,
-    /// The refined positions of every line's edges, in order.
+    /// The refined positions of every line's edges, in order (flat: line after line).
     smoothed: Vec<f32>,
+    /// Where each line's edges start in the flat order, and one past the last line.
+    line_start: Vec<usize>,
+    /// Per edge (flat order), its boundary's continuation on the previous and on the
+    /// next line ([`NO_LINK`] where there is none).
+    up: Vec<u32>,
+    down: Vec<u32>,
 }
+
+/// No continuation of a boundary on the neighbouring line.
+const NO_LINK: u32 = u32::MAX;
 
 impl Decoder {
     /// Tables for family `family` of `spec`, whose boundary index grows along the scan
@@ -108,7 +117,7 @@ impl Decoder {
             }
         }
         let used_codes = (0..27).filter(|&c| !by_seen_code[c].is_empty()).fold(0, |m, c| m | 1 << c);
-        Decoder { span, codes, by_seen_code, increasing, used_codes, candidates: Vec::new(), votes: Vec::new(), smoothed: Vec::new() }
+        Decoder { span, codes, by_seen_code, increasing, used_codes, candidates: Vec::new(), votes: Vec::new(), smoothed: Vec::new(), line_start: Vec::new(), up: Vec::new(), down: Vec::new() }
     }
 
     /// Whether boundary `j` can be what an edge with the compatible codes `mask` shows.
@@ -324,19 +333,34 @@ impl Decoder {
     /// them keeps slanted and gently curved stripes where they are.
     pub fn smooth_positions(&mut self, seg: &mut Segmentation) {
         let lines = &seg.lines;
+        self.line_start.clear();
+        let mut total = 0;
+        for edges in lines {
+            self.line_start.push(total);
+            total += edges.len();
+        }
+        self.line_start.push(total);
+        // Each boundary's continuation on the lines either side, found once.
+        for links in [&mut self.up, &mut self.down] {
+            links.clear();
+            links.resize(total, NO_LINK);
+        }
+        for l in 1..lines.len() {
+            let (a, b) = (self.line_start[l - 1], self.line_start[l]);
+            link_lines(&lines[l - 1], &lines[l], b, &mut self.down[a..b]);
+            link_lines(&lines[l], &lines[l - 1], a, &mut self.up[b..self.line_start[l + 1]]);
+        }
         let out = &mut self.smoothed;
         out.clear();
+        let mut flat = 0;
         for (l, edges) in lines.iter().enumerate() {
             for e in edges {
-                out.push(if e.id < 0 { e.pos } else { fit_along_chain(lines, l, e) });
+                out.push(if e.id < 0 { e.pos } else { fit_along_chain(lines, &self.line_start, &self.up, &self.down, l, flat, e.pos) });
+                flat += 1;
             }
         }
-        let mut k = 0;
-        for edges in seg.lines.iter_mut() {
-            for e in edges.iter_mut() {
-                e.pos = out[k];
-                k += 1;
-            }
+        for (e, &pos) in seg.lines.iter_mut().flatten().zip(out.iter()) {
+            e.pos = pos;
         }
     }
 
@@ -385,29 +409,60 @@ fn nearest(edges: &[Edge], pos: f32, tol: f32) -> Option<Edge> {
     best
 }
 
-/// The position on line `l` of the straight line fitted through edge `e` and its
-/// boundary's positions on up to [`SMOOTH_LINES`] lines either side (see
-/// [`Decoder::smooth_positions`]); `e.pos` when a side has none.
-fn fit_along_chain(lines: &[Vec<Edge>], l: usize, e: &Edge) -> f32 {
+/// For every identified edge of line `from`, the flat index (line `to` starts at
+/// `to_start`) of the edge of line `to` with the same identity nearest to it within
+/// [`CONTINUATION_TOLERANCE`]: both lines are sorted by position, so one sweep.
+fn link_lines(from: &[Edge], to: &[Edge], to_start: usize, links: &mut [u32]) {
+    let tol = CONTINUATION_TOLERANCE;
+    let mut lo = 0;
+    for (e, link) in from.iter().zip(links.iter_mut()) {
+        if e.id < 0 {
+            continue;
+        }
+        while lo < to.len() && to[lo].pos < e.pos - tol {
+            lo += 1;
+        }
+        let mut best: Option<(usize, f32)> = None;
+        for (j, o) in to[lo..].iter().enumerate().take_while(|(_, o)| o.pos <= e.pos + tol) {
+            let d = (o.pos - e.pos).abs();
+            if o.id == e.id && best.is_none_or(|(_, bd)| d < bd) {
+                best = Some((lo + j, d));
+            }
+        }
+        if let Some((j, _)) = best {
+            *link = (to_start + j) as u32;
+        }
+    }
+}
+
+/// The position on its own line `l` of the straight line fitted through the edge at
+/// flat index `flat` (at `pos`) and its boundary's positions on up to [`SMOOTH_LINES`] lines
+/// either side, followed through the `up` and `down` links (see
+/// [`Decoder::smooth_positions`]); `pos` when a side has none.
+fn fit_along_chain(lines: &[Vec<Edge>], line_start: &[usize], up: &[u32], down: &[u32], l: usize, flat: usize, pos: f32) -> f32 {
+    // The position of the edge at flat index `i` of line `m`.
+    let at = |m: usize, i: usize| lines[m][i - line_start[m]].pos;
     // The samples: (line offset d, position p), the edge's own first.
     let mut samples = [(0f32, 0f32); 2 * SMOOTH_LINES + 1];
-    samples[0] = (0.0, e.pos);
+    samples[0] = (0.0, pos);
     let mut n = 1;
     let mut sides = [false; 2];
-    for (side, sign) in [(0, -1isize), (1, 1)] {
-        let mut prev = e.pos;
-        for dl in 1..=SMOOTH_LINES as isize {
-            let m = l as isize + sign * dl;
-            let Some(other) = usize::try_from(m).ok().and_then(|m| lines.get(m)) else { break };
-            let Some(p) = nearest_with_id(other, prev, CONTINUATION_TOLERANCE, e.id) else { break };
-            samples[n] = ((sign * dl) as f32, p);
+    for (side, sign, links) in [(0, -1f32, up), (1, 1f32, down)] {
+        let mut i = flat;
+        for dl in 1..=SMOOTH_LINES {
+            let next = links[i];
+            if next == NO_LINK {
+                break;
+            }
+            i = next as usize;
+            let m = if sign < 0.0 { l - dl } else { l + dl };
+            samples[n] = (sign * dl as f32, at(m, i));
             n += 1;
             sides[side] = true;
-            prev = p;
         }
     }
     if !(sides[0] && sides[1]) {
-        return e.pos;
+        return pos;
     }
     let samples = &samples[..n];
     let (mut sd, mut sdd, mut sp, mut sdp) = (0f32, 0f32, 0f32, 0f32);
@@ -417,28 +472,17 @@ fn fit_along_chain(lines: &[Vec<Edge>], l: usize, e: &Edge) -> f32 {
     let nf = n as f32;
     let den = nf * sdd - sd * sd;
     if den <= 0.0 {
-        return e.pos;
+        return pos;
     }
     let (intercept, slope) = ((sp * sdd - sd * sdp) / den, (nf * sdp - sd * sp) / den);
     // A chain that bends more than noise does (two surfaces meeting, a boundary that
     // jumps) is no straight line: the edge keeps its own position.
     if samples.iter().any(|&(d, p)| (p - intercept - slope * d).abs() > SMOOTH_TOLERANCE) {
-        return e.pos;
+        return pos;
     }
     intercept
 }
 
-/// The position of the edge of `edges` (sorted by position) with identity `id`
-/// nearest to `pos` within `tol`.
-fn nearest_with_id(edges: &[Edge], pos: f32, tol: f32, id: i32) -> Option<f32> {
-    let i = edges.partition_point(|e| e.pos < pos - tol);
-    edges[i..]
-        .iter()
-        .take_while(|e| e.pos <= pos + tol)
-        .filter(|e| e.id == id)
-        .map(|e| e.pos)
-        .min_by(|a, b| (a - pos).abs().total_cmp(&(b - pos).abs()))
-}
 
 #[cfg(test)]
 mod tests {
