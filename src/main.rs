@@ -353,6 +353,9 @@ mod cli {
                 if stats.merged == 0 {
                     eprintln!("nothing decoded: is the pattern in view, in focus and not over- or under-exposed?");
                 }
+                if filter == FilterMode::Direct && stats.decoded.len() >= 3 {
+                    eprintln!("note: with three directions every pixel shows three stripes at once, which direct estimation cannot separate (about a tenth decodes on the simulator): use --filter loggrad");
+                }
                 if let Some(path) = depth {
                     io::write_file(&path, &io::encode_pfm(&result.depth))?;
                 }

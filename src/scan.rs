@@ -62,8 +62,7 @@ pub struct ScanStats {
     pub width: usize,
     /// Frame height, pixels.
     pub height: usize,
-    /// The filter that ran ([`FilterMode::effective`]: `direct` with three families
-    /// runs `loggrad`).
+    /// The filter used.
     pub filter: String,
     /// Pixels with a depth, per family.
     pub decoded: Vec<usize>,
@@ -506,7 +505,7 @@ impl Scanner {
         stats.filter.clear();
         {
             use std::fmt::Write;
-            let _ = write!(stats.filter, "{}", self.config.filter.effective(families));
+            let _ = write!(stats.filter, "{}", self.config.filter);
         }
         stats.stage_ms = laps;
         clock.lap("cloud", &mut r.stats.stage_ms);

@@ -175,10 +175,7 @@ pub fn evaluate_with(
     Ok(Row {
         scene: scene_name.to_string(),
         directions,
-        filter: match filter.effective(directions) {
-            f if f == filter => filter.to_string(),
-            f => format!("{filter} (runs {f})"),
-        },
+        filter: filter.to_string(),
         merged: measure(&result.depth, &truth),
         families: result.family_depth.iter().map(|d| measure(d, &truth)).collect(),
     })

@@ -74,14 +74,12 @@ use std::str::FromStr;
 /// How the captured colours are turned into stripe colours.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
 pub enum FilterMode {
-    /// The captured colours as they are (the paper's "direct estimation"), for one or
-    /// two families. Three families cannot be read directly: every pixel shows the
-    /// product of three stripes, the others' colours follow a code sequence (no period
-    /// that smoothing along a family's stripes could average away; tried, 10-21 %
-    /// coverage with 2-28 % outliers), and separating them is the directional
-    /// restoration itself (the paper's decoupling). So with three families `direct`
-    /// runs [`FilterMode::LogGrad`]'s restoration, which there is at each family's
-    /// dominant angle ([`FilterMode::effective`]).
+    /// The captured colours as they are (the paper's "direct estimation"). With three
+    /// families it decodes little (10-21 % coverage, 2-28 % outliers on the simulator's
+    /// scenes): every pixel shows the product of three stripes, the others' colours
+    /// follow a code sequence (no period that smoothing along a family's stripes could
+    /// average away), and separating them is the directional restoration itself (the
+    /// paper's decoupling), which is what `LogGrad` does.
     Direct,
     /// Log-gradient restoration with the per-pixel best angle (paper eq. 5-8, section 4).
     #[default]
@@ -89,18 +87,6 @@ pub enum FilterMode {
     /// Log-gradient restoration at each family's dominant angle only, no per-pixel
     /// rotation (the paper's Fig. 4(b), a teaching comparison).
     LogGradNoRotation,
-}
-
-impl FilterMode {
-    /// The mode that runs for a pattern of `families` families: [`FilterMode::Direct`]
-    /// becomes [`FilterMode::LogGrad`] with three (see there).
-    pub fn effective(self, families: usize) -> FilterMode {
-        if self == FilterMode::Direct && families >= 3 {
-            FilterMode::LogGrad
-        } else {
-            self
-        }
-    }
 }
 
 impl FromStr for FilterMode {
@@ -484,7 +470,6 @@ impl LogGradFilter {
         if out.len() != windows.len() || out.iter().any(|r| r.width != self.width || r.height != self.height) {
             return Err(Error::Internal("filter output does not match the families or the image size".into()));
         }
-        let mode = mode.effective(windows.len());
         if mode == FilterMode::Direct {
             // One log image, copied to every family.
             if let Some((first, rest)) = out.split_first_mut() {
