@@ -1,30 +1,26 @@
-//! Stripe identification from neighbour windows (spatially windowed uniqueness), and
+//! Stripe identification from neighbour sequences (spatially windowed uniqueness), and
 //! the projector stripe coordinate of every pixel between identified boundaries.
 //!
 //! Along a scan line the boundaries of one run (no unusable pixel between them) are
-//! matched to the pattern by the transitions they are compatible with
-//! ([`crate::segment::CodeMask`]). Every `window - 1` consecutive codes occur once in
-//! the pattern, so where each boundary's transition is known exactly, a window of that
-//! many boundaries names its first boundary. Where the evidence is looser (a channel
-//! too dark to read on a saturated dye, or clipped), several places in the pattern may
-//! fit a window: it then grows, one boundary at a time up to [`MAX_EXTRA_SPAN`] more,
-//! until exactly one place fits. Each window that fits once votes for the identities of
-//! all its boundaries; a boundary is identified where at least two overlapping windows
-//! agree and none disagrees, so a single misread transition or a spurious edge leaves
-//! its neighbours empty instead of wrong. Identities must increase by one from boundary
-//! to boundary (the order a dynamic-programming alignment, Zhang, Curless, Seitz 2002,
-//! enforces too), restricted here to consecutive boundaries because a wrong identity is
-//! worse than none.
+//! aligned to the pattern by the transitions they are compatible with
+//! ([`crate::segment::CodeMask`]): a dynamic-programming alignment over stripe
+//! identities (see [`crate::align`]) that keeps the pattern's order and tolerates
+//! spurious edges, missed boundaries and misread transitions, and leaves an edge empty
+//! unless its identity is well ahead of every other (a wrong identity is worse than
+//! none). Every `window - 1` consecutive transitions occur once in the pattern, so a
+//! few clean boundaries in a row are enough; looser evidence (a channel too dark to read
+//! on a saturated dye, or clipped) needs more of them.
 //!
 //! Then across lines: a stripe boundary continues from line to line, so identities are
 //! checked against the boundaries at the same place on the neighbouring lines (a
 //! disagreeing majority removes one, and so does no agreeing neighbour at all: texture
-//! in light the projector does not reach can fit a window by chance on one line, but
-//! not the same window on the next) and propagated along connected boundaries to
-//! those that could not be identified on their own line (short runs near occluding
-//! edges, where only a partial window is visible), provided their own code matches
-//! the pattern's code for that boundary (is compatible with it).
+//! in light the projector does not reach can fit by chance on one line, but not the
+//! same identities on the next) and propagated along connected boundaries to those
+//! that could not be identified on their own line (short runs near occluding edges,
+//! where only a partial window is visible), provided their own code matches the
+//! pattern's code for that boundary (is compatible with it).
 
+use crate::align::Aligner;
 use crate::pattern::PatternSpec;
 use crate::segment::{pack, reverse, Code, CodeMask, Edge, ScanAxis, Segmentation, NO_CODE};
 
@@ -51,11 +47,6 @@ pub const SMOOTH_TOLERANCE: f32 = 0.4;
 /// Propagation sweeps (down, up, down, ...) along connected boundaries.
 pub const PROPAGATION_SWEEPS: usize = 4;
 
-/// How many boundaries a window may grow beyond the pattern's own window when loose
-/// evidence lets several places fit: each boundary with one unreadable channel of
-/// three still cuts the candidates about threefold.
-pub const MAX_EXTRA_SPAN: usize = 4;
-
 /// Most compatible transitions (of those the pattern uses) an edge may have to take an
 /// identity by propagation:
 /// propagation checks one identity only, so a loose edge would take it by chance.
@@ -66,23 +57,21 @@ pub const MIN_LINE_SUPPORT: usize = 2;
 
 /// The identification tables of one stripe family.
 pub struct Decoder {
-    /// Transitions per window (`spec.window - 1`).
-    span: usize,
     /// Pattern code of boundary j (between stripes j-1 and j), j in 0..=count;
     /// [`NO_CODE`] for the outer two unless the stripes leave a margin there.
     codes: Vec<Code>,
-    /// Per code as seen along the scan direction, the boundaries that show it.
-    by_seen_code: Vec<Vec<i32>>,
     /// Boundary identities grow along the scan direction.
     increasing: bool,
     /// The codes some boundary of the pattern shows, as seen along the scan direction.
     used_codes: CodeMask,
-    candidates: Vec<i32>,
-    votes: Vec<(i32, u8, bool)>,
     /// The refined positions of every line's edges, in order (flat: line after line).
     smoothed: Vec<f32>,
     /// Where each line's edges start in the flat order, and one past the last line.
     line_start: Vec<usize>,
+    /// The alignment of a run to the pattern, its masks and its ranks.
+    aligner: Aligner,
+    run_masks: Vec<u32>,
+    run_ranks: Vec<i32>,
     /// Per edge (flat order), its boundary's continuation on the previous and on the
     /// next line ([`NO_LINK`] where there is none).
     up: Vec<u32>,
@@ -108,16 +97,29 @@ impl Decoder {
                 }
             })
             .collect();
-        let span = spec.window.saturating_sub(1).max(1);
-        let mut by_seen_code = vec![Vec::new(); 27];
-        for (j, &c) in codes.iter().enumerate().filter(|&(_, &c)| c != NO_CODE) {
-            let seen = if increasing { c } else { reverse(c) };
-            if let Some(list) = by_seen_code.get_mut(seen as usize) {
-                list.push(j as i32);
-            }
+        let used_codes = codes
+            .iter()
+            .filter(|&&c| c != NO_CODE)
+            .map(|&c| if increasing { c } else { reverse(c) })
+            .fold(0, |m: CodeMask, c| m | 1 << c);
+        let n = codes.len();
+        let rank_id = |r: usize| if increasing { r } else { n - 1 - r };
+        let aligner = Aligner::new((0..n).map(|r| {
+            let c = codes[rank_id(r)];
+            if increasing { c } else { reverse(c) }
+        }));
+        Decoder {
+            codes,
+            increasing,
+            used_codes,
+            smoothed: Vec::new(),
+            line_start: Vec::new(),
+            aligner,
+            run_masks: Vec::new(),
+            run_ranks: Vec::new(),
+            up: Vec::new(),
+            down: Vec::new(),
         }
-        let used_codes = (0..27).filter(|&c| !by_seen_code[c].is_empty()).fold(0, |m, c| m | 1 << c);
-        Decoder { span, codes, by_seen_code, increasing, used_codes, candidates: Vec::new(), votes: Vec::new(), smoothed: Vec::new(), line_start: Vec::new(), up: Vec::new(), down: Vec::new() }
     }
 
     /// Whether boundary `j` can be what an edge with the compatible codes `mask` shows.
@@ -154,7 +156,7 @@ impl Decoder {
     /// Identify the boundaries of every line of `seg` (sets `Edge::id`).
     pub fn run(&mut self, seg: &mut Segmentation) {
         for line in seg.lines.iter_mut() {
-            self.identify_line(line);
+            self.align_line(line);
         }
         self.check_across_lines(seg);
         for sweep in 0..PROPAGATION_SWEEPS {
@@ -162,83 +164,28 @@ impl Decoder {
         }
     }
 
-    /// The one identity of `edges[start]` that a window starting there fits, growing
-    /// the window while several fit; with the window's length.
-    fn match_window(&mut self, edges: &[Edge], start: usize) -> Option<(i32, usize)> {
-        let step: i32 = if self.increasing { 1 } else { -1 };
-        let first = edges[start];
-        self.candidates.clear();
-        for c in 0..27 {
-            if first.mask & (1 << c) != 0 {
-                self.candidates.extend_from_slice(&self.by_seen_code[c]);
-            }
-        }
-        // Evidence in bits: an edge whose transition is known exactly names one of the
-        // P transitions the pattern uses (log2 P bits: 26 for the 8-colour palette, 6
-        // for 3-colour RGB); one compatible with m of them, log2(P / m).
-        // A window is accepted only with at least the evidence of the pattern's own
-        // window of exact transitions, so that loose evidence is never taken on less
-        // than clean evidence would be.
-        let used = self.used_codes;
-        let bits = |mask: CodeMask| (used.count_ones() as f32 / (mask & used).count_ones().max(1) as f32).log2();
-        let needed = self.span as f32 * (used.count_ones() as f32).log2() - 1e-3;
-        let mut evidence = bits(first.mask);
-        let mut len = 1;
-        while len < self.span + MAX_EXTRA_SPAN {
-            let Some(e) = edges.get(start + len).filter(|e| e.run == first.run) else {
-                return None;
-            };
-            let k = len as i32;
-            let mut kept = 0;
-            for i in 0..self.candidates.len() {
-                let j0 = self.candidates[i];
-                if self.fits(e.mask, j0 + step * k) {
-                    self.candidates[kept] = j0;
-                    kept += 1;
-                }
-            }
-            self.candidates.truncate(kept);
-            evidence += bits(e.mask);
-            len += 1;
-            match self.candidates.len() {
-                0 => return None,
-                1 if len >= self.span && evidence >= needed => return Some((self.candidates[0], len)),
-                _ => {}
-            }
-        }
-        None
-    }
-
-    /// Window votes along one line.
-    fn identify_line(&mut self, edges: &mut [Edge]) {
-        let n = edges.len();
-        self.votes.clear();
-        self.votes.resize(n, (-1, 0, false));
-        for e in edges.iter_mut() {
-            e.id = -1;
-        }
-        let step: i32 = if self.increasing { 1 } else { -1 };
-        for start in 0..n {
-            let Some((first, len)) = self.match_window(edges, start) else {
-                continue;
-            };
-            for k in 0..len {
-                // The identity of edges[start + k].
-                let id = first + step * k as i32;
-                let v = &mut self.votes[start + k];
-                if v.1 == 0 {
-                    *v = (id, 1, false);
-                } else if v.0 == id {
-                    v.1 = v.1.saturating_add(1);
+    /// Identify every run of `edges` by its alignment to the pattern (see
+    /// [`crate::align`]).
+    fn align_line(&mut self, edges: &mut [Edge]) {
+        let n_ranks = self.codes.len() as i32;
+        let mut start = 0;
+        while start < edges.len() {
+            let run = edges[start].run;
+            let end = start + edges[start..].iter().take_while(|e| e.run == run).count();
+            self.run_masks.clear();
+            self.run_masks.extend(edges[start..end].iter().map(|e| e.mask));
+            self.run_ranks.resize(end - start, -1);
+            self.aligner.align(&self.run_masks, self.used_codes, &mut self.run_ranks);
+            for (e, &r) in edges[start..end].iter_mut().zip(&self.run_ranks) {
+                e.id = if r < 0 {
+                    -1
+                } else if self.increasing {
+                    r
                 } else {
-                    v.2 = true; // conflicting windows
-                }
+                    n_ranks - 1 - r
+                };
             }
-        }
-        for (e, v) in edges.iter_mut().zip(&self.votes) {
-            if v.1 >= 2 && !v.2 {
-                e.id = v.0;
-            }
+            start = end;
         }
     }
 

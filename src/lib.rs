@@ -15,7 +15,8 @@
 //! | coded stripe patterns and their spec files | [`pattern`] | error, raster |
 //! | log-gradient illumination restoration (eq. 5-8) | [`filter`] | error, raster |
 //! | stripe boundaries and their colour transitions | [`segment`] | filter, raster |
-//! | stripe identification from neighbour windows | [`decode`] | pattern, segment |
+//! | order-preserving alignment of a line's boundaries to the pattern | [`align`] | |
+//! | stripe identification from neighbour sequences | [`decode`] | align, pattern, segment |
 //! | depth from a calibrated projector-camera pair | [`triangulate`] | calib, pattern |
 //! | merging the range images of the families | [`merge`] | |
 //! | point clouds as flat arrays, and PLY | [`cloud`] | error |
@@ -36,6 +37,7 @@
 pub mod pattern;
 pub mod filter;
 pub mod segment;
+pub mod align;
 pub mod decode;
 pub mod triangulate;
 pub mod merge;
