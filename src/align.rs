@@ -94,11 +94,6 @@ impl Aligner {
         Aligner { rank_bit, words, code_ranks, cand: vec![0; words], ..Default::default() }
     }
 
-    /// Number of ranks (pattern boundaries).
-    pub fn ranks(&self) -> usize {
-        self.rank_bit.len()
-    }
-
     /// Label the edges whose compatible codes are `masks` (one run, in scan order):
     /// `out[i]` is the rank of edge `i`, or -1 where no rank is clear enough.
     /// `used` is the set of codes the pattern uses.
@@ -183,44 +178,31 @@ impl Aligner {
             }
             let prev_active = if i > 0 { &self.active[(i - 1) * words..i * words] } else { &self.cand[..0] };
             let mut row_max = NONE;
-            for w in 0..words {
-                let mut bits = self.cand[w];
-                while bits != 0 {
-                    let r = w * 64 + bits.trailing_zeros() as usize;
-                    bits &= bits - 1;
-                    let mut from = if fresh { prev_none } else { NONE };
-                    let mut kept = NONE;
-                    if i > 0 {
-                        let prev = &self.last[row - nr..row];
-                        for k in 1..=(MAX_MISSED + 1).min(r) {
-                            if has(prev_active, r - k) {
-                                from = from.max(prev[r - k] - jump(k));
-                            }
-                        }
-                        if has(prev_active, r) {
-                            kept = prev[r] - SPURIOUS_BITS;
+            for r in set_bits(&self.cand) {
+                let mut from = if fresh { prev_none } else { NONE };
+                let mut kept = NONE;
+                if i > 0 {
+                    let prev = &self.last[row - nr..row];
+                    for k in 1..=(MAX_MISSED + 1).min(r) {
+                        if has(prev_active, r - k) {
+                            from = from.max(prev[r - k] - jump(k));
                         }
                     }
-                    let here = from + emit(edge, r);
-                    self.labelled[row + r] = here;
-                    let v = here.max(kept);
-                    self.last[row + r] = v;
-                    row_max = row_max.max(v);
+                    if has(prev_active, r) {
+                        kept = prev[r] - SPURIOUS_BITS;
+                    }
                 }
+                let here = from + emit(edge, r);
+                self.labelled[row + r] = here;
+                let v = here.max(kept);
+                self.last[row + r] = v;
+                row_max = row_max.max(v);
             }
             // Keep the ranks within the beam.
             let floor = row_max - BEAM_BITS;
-            for w in 0..words {
-                let mut bits = self.cand[w];
-                let mut keep = 0u64;
-                while bits != 0 {
-                    let b = bits.trailing_zeros() as usize;
-                    bits &= bits - 1;
-                    if self.last[row + w * 64 + b] >= floor {
-                        keep |= 1 << b;
-                    }
-                }
-                self.active[i * words + w] = keep;
+            let active = &mut self.active[i * words..(i + 1) * words];
+            for r in set_bits(&self.cand).filter(|&r| self.last[row + r] >= floor) {
+                active[r / 64] |= 1 << (r % 64);
             }
             prev_max = row_max;
         }
