@@ -360,7 +360,7 @@ mod cli {
                     io::write_file(&path, &io::encode_pfm(&result.depth))?;
                 }
                 if let Some(path) = correspondence {
-                    io::write_file(&path, &io::encode_pfm_rgb(&result.correspondence))?;
+                    io::write_file(&path, &io::encode_pfm_rgb(&result.correspondence()))?;
                 }
                 if let Some(path) = ply {
                     io::write_file(&path, &stripelight::cloud::encode_ply(&result.cloud, ascii))?;

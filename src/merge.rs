@@ -56,52 +56,60 @@ pub fn merge_into<D: AsRef<[f32]>>(depths: &[D], weights: &[Vec<f32>], out: &mut
 }
 
 /// Remove depths with fewer than [`MIN_SUPPORT`] of their 8 neighbours on the same
-/// surface. `scratch` is resized to the image and overwritten.
+/// surface, as they were before any was removed. `scratch` is resized to two rows and
+/// overwritten: it keeps the original values of the row above and of the row being
+/// changed (the row below is not changed yet), so the pass needs no copy of the map.
 ///
 /// Interior pixels take a path without bounds checks (a comparison with a NaN
 /// neighbour is false, so missing neighbours need no test of their own); the one-pixel
 /// border takes the general path.
 pub fn remove_isolated(depth: &mut [f32], width: usize, height: usize, scratch: &mut Vec<f32>) -> usize {
+    if width == 0 || height == 0 {
+        return 0;
+    }
     scratch.clear();
-    scratch.extend_from_slice(depth);
-    let src = &scratch[..];
+    scratch.resize(2 * width, f32::NAN);
+    let (mut above, mut here) = scratch.split_at_mut(width);
     let mut removed = 0;
-    let mut keep = |i: usize, support: usize, depth: &mut [f32]| {
-        if support < MIN_SUPPORT {
-            depth[i] = f32::NAN;
-            removed += 1;
-        }
-    };
-    let general = |x: usize, y: usize, z: f32| -> usize {
-        let tol = neighbour_tolerance(z);
-        let mut support = 0;
-        for yy in y.saturating_sub(1)..(y + 2).min(height) {
-            for xx in x.saturating_sub(1)..(x + 2).min(width) {
-                if (xx, yy) != (x, y) && (src[yy * width + xx] - z).abs() <= tol {
-                    support += 1;
+    for y in 0..height {
+        let (head, tail) = depth.split_at_mut((y + 1) * width);
+        let row = &mut head[y * width..];
+        here.copy_from_slice(row);
+        let below = (y + 1 < height).then(|| &tail[..width]);
+        // The original rows y-1, y, y+1 (None beyond the map).
+        let rows = [(y > 0).then_some(&*above), Some(&*here), below];
+        let general = |x: usize, z: f32| -> usize {
+            let tol = neighbour_tolerance(z);
+            let mut support = 0;
+            for (dy, r) in rows.iter().enumerate() {
+                let Some(r) = r else { continue };
+                for xx in x.saturating_sub(1)..(x + 2).min(width) {
+                    if (xx, dy) != (x, 1) && (r[xx] - z).abs() <= tol {
+                        support += 1;
+                    }
                 }
             }
-        }
-        support
-    };
-    for y in 0..height {
-        let interior_row = y > 0 && y + 1 < height;
+            support
+        };
         for x in 0..width {
-            let i = y * width + x;
-            let z = src[i];
+            let z = here[x];
             if z.is_nan() {
                 continue;
             }
-            let support = if interior_row && x > 0 && x + 1 < width {
-                let tol = neighbour_tolerance(z);
-                let near = |j: usize| ((src[j] - z).abs() <= tol) as usize;
-                let (up, down) = (i - width, i + width);
-                near(up - 1) + near(up) + near(up + 1) + near(i - 1) + near(i + 1) + near(down - 1) + near(down) + near(down + 1)
-            } else {
-                general(x, y, z)
+            let support = match rows {
+                [Some(up), Some(mid), Some(down)] if x > 0 && x + 1 < width => {
+                    let tol = neighbour_tolerance(z);
+                    let near = |v: f32| ((v - z).abs() <= tol) as usize;
+                    near(up[x - 1]) + near(up[x]) + near(up[x + 1]) + near(mid[x - 1]) + near(mid[x + 1]) + near(down[x - 1]) + near(down[x]) + near(down[x + 1])
+                }
+                _ => general(x, z),
             };
-            keep(i, support, depth);
+            if support < MIN_SUPPORT {
+                row[x] = f32::NAN;
+                removed += 1;
+            }
         }
+        std::mem::swap(&mut above, &mut here);
     }
     removed
 }

@@ -11,7 +11,7 @@ use crate::calib::{crosstalk_inverse, Calibration, Crosstalk, IDENTITY_CROSSTALK
 use crate::cloud::Cloud;
 use crate::decode::Decoder;
 use crate::error::{Error, Result};
-use crate::filter::{smooth_along_stripes, FamilyWindow, FilterMode, LogGradFilter, Restored};
+use crate::filter::{smooth_along_stripes, FamilyWindow, FilterMode, LogGradFilter, Restored, Tiling};
 use crate::merge;
 use crate::pattern::PatternSpec;
 use crate::raster::{detect_chroma_pairs, gamma_lut, interpolate_chroma_into, rgb8_to_linear_lut, rgba8_into, ChromaPairs, Image, Rgb};
@@ -39,6 +39,8 @@ pub struct ScanConfig {
     /// the operating system's natively, none in WebAssembly unless the boundary gives
     /// one (the pipeline itself knows nothing of the browser).
     pub clock: Option<fn() -> f64>,
+    /// When the filter restores the frame in tiles (large frames, to bound memory).
+    pub tiling: Tiling,
 }
 
 impl Default for ScanConfig {
@@ -51,6 +53,7 @@ impl Default for ScanConfig {
             clock: Some(native_clock),
             #[cfg(target_arch = "wasm32")]
             clock: None,
+            tiling: Tiling::default(),
         }
     }
 }
@@ -131,15 +134,34 @@ pub struct ScanResult {
     pub depth: Image<f32>,
     /// Each family's depth map, the same way.
     pub family_depth: Vec<Image<f32>>,
-    /// Per camera pixel, channel k = family k's projector coordinate along its normal
-    /// (the spec's `s`, projector pixels; see `pattern::Family`) where family k has a
-    /// depth; NaN where it has none or the pattern has no family k.
-    pub correspondence: Image<[f32; 3]>,
+    /// Each family's stripe coordinate per pixel (boundary j at q = j, between the
+    /// boundaries the fraction of the way across the stripe); NaN where none.
+    pub stripe_coords: Vec<Vec<f32>>,
+    /// Per family, the spec's (origin, stripe width): `s = origin + q · width`.
+    stripe_geometry: Vec<(f32, f32)>,
     /// Figures about the scan.
     pub stats: ScanStats,
 }
 
 impl ScanResult {
+    /// Per camera pixel, channel k = family k's projector coordinate along its normal
+    /// (the spec's `s`, projector pixels; see `pattern::Family`) where family k has a
+    /// depth; NaN where it has none or the pattern has no family k. Made when asked
+    /// (three floats a pixel that the per-frame path does not need).
+    pub fn correspondence(&self) -> Image<[f32; 3]> {
+        let (w, h) = self.depth.size();
+        let mut out = Image::new(w, h, [f32::NAN; 3]);
+        let families = self.stripe_coords.iter().zip(&self.family_depth).zip(&self.stripe_geometry);
+        for (k, ((coords, depth), &(origin, width))) in families.enumerate().take(3) {
+            for ((c, &q), &z) in out.pixels_mut().iter_mut().zip(coords).zip(depth.pixels()) {
+                if !z.is_nan() {
+                    c[k] = origin + q * width;
+                }
+            }
+        }
+        out
+    }
+
     /// The cloud of a layer: `None` for the merged cloud, `Some(k)` for family k's.
     pub fn layer(&self, family: Option<usize>) -> Result<&Cloud> {
         match family {
@@ -181,7 +203,6 @@ pub struct Scanner {
     restored: Vec<Restored>,
     segmentations: Vec<Segmentation>,
     decoders: Vec<Decoder>,
-    coords: Vec<Vec<f32>>,
     triangulator: Triangulator,
     weights: Vec<Vec<f32>>,
     merged_families: Vec<u8>,
@@ -299,15 +320,15 @@ impl Scanner {
         let decoders = predictions.iter().enumerate().map(|(k, p)| Decoder::new(&spec, k, p.increasing)).collect();
         let triangulator = Triangulator::new(&calib, &spec);
         let plane = || vec![f32::NAN; w * h];
+        let period = predictions.iter().map(|p| p.period).fold(0.0f32, f32::max);
         Ok(Scanner {
-            filter: LogGradFilter::new(w, h)?,
+            filter: LogGradFilter::for_frame(w, h, period, config.tiling)?,
             restored: (0..n).map(|_| Restored::new(w, h)).collect(),
             segmentations: (0..n).map(|_| Segmentation::default()).collect(),
-            coords: (0..n).map(|_| plane()).collect(),
             weights: (0..n).map(|_| plane()).collect(),
             merged_families: vec![0; w * h],
-            scratch: Vec::with_capacity(w * h),
-            family_scratch: (0..n).map(|_| Vec::with_capacity(w * h)).collect(),
+            scratch: Vec::new(),
+            family_scratch: (0..n).map(|_| Vec::new()).collect(),
             family_ms: vec![[0.0; 4]; n],
             frame: Image::new(w, h, [0; 3]),
             interpolated: Image::new(w, h, [0; 3]),
@@ -318,7 +339,8 @@ impl Scanner {
                 depth: Image::new(w, h, f32::NAN),
                 family_depth: (0..n).map(|_| Image::new(w, h, f32::NAN)).collect(),
                 family_clouds: vec![Cloud::default(); n],
-                correspondence: Image::new(w, h, [f32::NAN; 3]),
+                stripe_coords: (0..n).map(|_| plane()).collect(),
+                stripe_geometry: spec.families.iter().map(|f| (f.origin as f32, f.stripe_width as f32)).collect(),
                 ..Default::default()
             },
             spec,
@@ -445,7 +467,7 @@ impl Scanner {
             ($s:ident, $iter:ident) => {
                 $s.restored
                     .$iter()
-                    .zip($s.segmentations.$iter().zip($s.decoders.$iter().zip($s.coords.$iter().zip(
+                    .zip($s.segmentations.$iter().zip($s.decoders.$iter().zip(r.stripe_coords.$iter().zip(
                         $s.weights.$iter().zip(r.family_depth.$iter().zip($s.family_scratch.$iter().zip($s.family_ms.$iter()))),
                     ))))
                     .enumerate()
@@ -485,14 +507,6 @@ impl Scanner {
             }
         };
         fill(&mut r.cloud, &r.depth, &|i| self.merged_families[i]);
-        // Stripe coordinate q (boundary j at q = j) to the spec's s = origin + q·width.
-        for (k, fam) in self.spec.families.iter().enumerate().take(3) {
-            let (origin, width) = (fam.origin as f32, fam.stripe_width as f32);
-            let depth = r.family_depth[k].pixels();
-            for ((c, &q), &z) in r.correspondence.pixels_mut().iter_mut().zip(&self.coords[k]).zip(depth) {
-                c[k] = if z.is_nan() { f32::NAN } else { origin + q * width };
-            }
-        }
         r.stats.decoded.clear();
         for k in 0..families {
             fill(&mut r.family_clouds[k], &r.family_depth[k], &|_| 1 << k);
@@ -530,7 +544,7 @@ impl Scanner {
 
     /// Each family's stripe coordinate per pixel from the last scan (NaN = none).
     pub fn stripe_coords(&self) -> &[Vec<f32>] {
-        &self.coords
+        &self.result.stripe_coords
     }
 
     /// The stages of the last scan as pictures: input, per family the restored image,
@@ -545,7 +559,7 @@ impl Scanner {
             filter: self.config.filter,
             restored: &self.restored,
             segmentations: &self.segmentations,
-            stripe_coords: &self.coords,
+            stripe_coords: &self.result.stripe_coords,
             family_depth: &self.result.family_depth,
             depth: &self.result.depth,
         })

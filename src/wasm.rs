@@ -326,7 +326,7 @@ impl WasmScanner {
     /// value k = family k's projector coordinate along its normal (the spec's `s`,
     /// projector pixels); NaN where none or where the pattern has no family k.
     pub fn correspondence(&self) -> Float32Array {
-        Float32Array::from(self.inner.result().correspondence.pixels().as_flattened())
+        Float32Array::from(self.inner.result().correspondence().pixels().as_flattened())
     }
 
     /// The intermediate images of the last scan (empty before the first).

@@ -166,3 +166,51 @@ fn degenerate_frames_give_finite_results() {
     assert!(filter.run(&bad, &windows[..1], FilterMode::LogGrad, &mut out).is_err());
 }
 }
+
+/// A frame restored in overlapping tiles (as large frames are) matches the frame
+/// restored whole: the restored log gradients (what segmentation reads) differ little,
+/// seams included, and the per-pixel angles agree almost everywhere. Small tiles on a
+/// VGA frame, so that many seams cross the sphere. Measured: 0.07 relative RMS
+/// difference (0.11 within 8 pixels of a seam, 0.05 further), the same angle at 99.9 %
+/// of the pixels; tiles blended without their overlap, or restored without context,
+/// differ far more at their seams.
+#[cfg(not(target_arch = "wasm32"))]
+#[test]
+fn tiled_restoration_matches_the_whole_frame() {
+    let (_, frame) = simulate("sphere", 2);
+    let img = linear(&frame.image);
+    let (w, h) = img.size();
+    let windows = FamilyWindow::for_families(&[0.0, std::f32::consts::FRAC_PI_2]);
+    let restore = |mut filter: LogGradFilter| {
+        let mut out = vec![Restored::new(w, h), Restored::new(w, h)];
+        filter.run(&img, &windows, FilterMode::LogGrad, &mut out).unwrap();
+        out
+    };
+    let whole = restore(LogGradFilter::new(w, h).unwrap());
+    let tiled_filter = LogGradFilter::tiled(w, h, 6.5, 260).unwrap();
+    assert!(tiled_filter.tile_count() >= 12, "{} tiles", tiled_filter.tile_count());
+    let tiled = restore(tiled_filter);
+    let border = 8;
+    for (k, (a, b)) in tiled.iter().zip(&whole).enumerate() {
+        assert!((a.dominant - b.dominant).abs() < 0.02, "family {k}: dominant {} vs {}", a.dominant, b.dominant);
+        let (mut diff, mut norm) = (0.0f64, 0.0f64);
+        for ch in 0..3 {
+            let (pa, pb) = (&a.log[ch], &b.log[ch]);
+            for y in border..h - border {
+                for x in border..w - border {
+                    let i = y * w + x;
+                    for step in [1, w] {
+                        let (ga, gb) = (pa[i + step] - pa[i - step], pb[i + step] - pb[i - step]);
+                        diff += ((ga - gb) as f64).powi(2);
+                        norm += (gb as f64).powi(2);
+                    }
+                }
+            }
+        }
+        let rel = (diff / norm).sqrt();
+        let same = a.angle.iter().zip(&b.angle).filter(|(x, y)| (*x - *y).abs() < 0.02).count() as f64 / (w * h) as f64;
+        eprintln!("family {k}: relative RMS gradient difference {rel:.4}, same angle at {:.1} % of pixels", 100.0 * same);
+        assert!(rel < 0.1, "family {k}: relative gradient difference {rel:.4}");
+        assert!(same > 0.95, "family {k}: same angle at {same:.3}");
+    }
+}

@@ -947,10 +947,11 @@ fn check_result(r: &ScanResult, frame: &Image<[u8; 3]>, families: usize) -> Resu
         }
     }
     // Channel k: family k's projector coordinate exactly where it has a depth.
-    if r.correspondence.size() != (w, h) {
-        return Err(format!("correspondence is {:?}", r.correspondence.size()));
+    let correspondence = r.correspondence();
+    if correspondence.size() != (w, h) {
+        return Err(format!("correspondence is {:?}", correspondence.size()));
     }
-    for (i, c) in r.correspondence.pixels().iter().enumerate() {
+    for (i, c) in correspondence.pixels().iter().enumerate() {
         for (k, &s) in c.iter().enumerate() {
             let has_depth = k < families && !r.family_depth[k].pixels()[i].is_nan();
             if s.is_nan() == has_depth || s.is_infinite() {

@@ -201,6 +201,34 @@ mod native {
         }
     }
 
+    /// Large frames are restored in overlapping tiles (`filter::Tiling`); a frame
+    /// restored in small tiles (200 pixels, so that about twenty seams cross each VGA
+    /// scene) decodes about as well as restored whole: within a point of coverage and a
+    /// tenth of a point of outliers.
+    #[test]
+    fn tiled_restoration_decodes_like_the_whole_frame() {
+        use stripelight::eval::measure;
+        use stripelight::filter::Tiling;
+        use stripelight::pattern::{PatternSpec, DEFAULT_STRIPE_WIDTH};
+        use stripelight::sim::{render, Scene, SimConfig};
+        let calib = Calibration::demo();
+        let spec = PatternSpec::generate(2, 1024, 768, DEFAULT_STRIPE_WIDTH).unwrap();
+        for scene in ["sphere", "paper", "occluders"] {
+            let cfg = SimConfig { seed: 1, projector_gamma: spec.encoding_gamma as f32, ..SimConfig::default() };
+            let truth = render(&Scene::builtin(scene).unwrap(), &calib, &spec.render_rgb8(), &cfg).unwrap();
+            let scan = |tiling: Tiling| {
+                let config = ScanConfig { crosstalk: cfg.crosstalk, tiling, ..ScanConfig::default() };
+                let mut scanner = Scanner::new(spec.clone(), calib.clone(), config).unwrap();
+                measure(&scanner.scan(&truth.image).unwrap().depth, &truth)
+            };
+            let whole = scan(Tiling::default());
+            let tiled = scan(Tiling { above_pixels: 0, size: 200 });
+            eprintln!("{scene}: whole {:.2} % / {:.3} %, tiled {:.2} % / {:.3} % (coverage / outliers)", 100.0 * whole.coverage, 100.0 * whole.outliers, 100.0 * tiled.coverage, 100.0 * tiled.outliers);
+            assert!(tiled.coverage >= whole.coverage - 0.01, "{scene}: coverage {:.4} tiled, {:.4} whole", tiled.coverage, whole.coverage);
+            assert!(tiled.outliers <= whole.outliers + 0.001, "{scene}: outliers {:.4} tiled, {:.4} whole", tiled.outliers, whole.outliers);
+        }
+    }
+
     /// The correspondence map (`scan --correspondence`) gives, per decoded pixel and
     /// family, the projector coordinate along the family's normal: within 0.25
     /// projector pixels of the simulator's true one (median), issue 11's target, and
@@ -220,7 +248,7 @@ mod native {
             for (k, fam) in spec.families.iter().enumerate() {
                 let (sin, cos) = (fam.angle_deg as f32).to_radians().sin_cos();
                 let mut errors = Vec::new();
-                for (i, c) in result.correspondence.pixels().iter().enumerate() {
+                for (i, c) in result.correspondence().pixels().iter().enumerate() {
                     assert_eq!(c[k].is_nan(), result.family_depth[k].pixels()[i].is_nan(), "family {k}, pixel {i}");
                     let [up, vp] = frame.projector.pixels()[i];
                     if !c[k].is_nan() && !up.is_nan() {
@@ -233,7 +261,7 @@ mod native {
                 eprintln!("{directions} directions, family {k}: median correspondence error {median:.3} projector px over {} pixels", errors.len());
                 assert!(median <= 0.25, "family {k}: median error {median} projector px");
             }
-            assert!(result.correspondence.pixels().iter().all(|c| c[directions..].iter().all(|x| x.is_nan())));
+            assert!(result.correspondence().pixels().iter().all(|c| c[directions..].iter().all(|x| x.is_nan())));
         }
     }
 

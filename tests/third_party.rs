@@ -38,7 +38,7 @@ fn scan_scene(scene: &str, spec: &PatternSpec) -> (f64, f64, f32) {
     let ou = (spec.width as f32 - 1.0) / 2.0;
     let (lo, hi) = (fam.origin as f32 + fam.stripe_width as f32, (fam.origin + (fam.count - 1) as f64 * fam.stripe_width) as f32);
     let (mut on_stripes, mut decoded, mut errors) = (0usize, 0usize, Vec::new());
-    for (i, c) in result.correspondence.pixels().iter().enumerate() {
+    for (i, c) in result.correspondence().pixels().iter().enumerate() {
         let up = frame.projector.pixels()[i][0];
         if up.is_nan() || !frame.lit.pixels()[i] {
             continue;

@@ -264,6 +264,18 @@ pub fn log_plane_into(img: &Image<Rgb>, channel: usize, dst: &mut [f32]) {
     }
 }
 
+/// [`log_plane_into`] of the `size` region at `origin` of `img` (which holds it).
+fn log_region_into(img: &Image<Rgb>, origin: (usize, usize), size: (usize, usize), channel: usize, dst: &mut [f32]) {
+    let (iw, _) = img.size();
+    let ((x0, y0), (w, h)) = (origin, size);
+    for y in 0..h {
+        let src = &img.pixels()[(y0 + y) * iw + x0..(y0 + y) * iw + x0 + w];
+        for (d, p) in dst[y * w..(y + 1) * w].iter_mut().zip(src) {
+            *d = p[channel].max(LOG_FLOOR).ln();
+        }
+    }
+}
+
 /// Longest box [`smooth_along_stripes`] takes, pixels: stripes of other families that
 /// repeat more slowly than this along a family's stripes are few per box anyway, and the
 /// cost grows with the length (an odd rig once asked for thousands of pixels).
@@ -369,9 +381,26 @@ pub fn box_filter_into(src: &[f32], dst: &mut [f32], tmp: &mut [f32], w: usize, 
     }
 }
 
-/// The fast steerable log-gradient restoration for one image size. Owns the FFT plans,
+/// The fast steerable log-gradient restoration for one frame size. Owns the FFT plans,
 /// the frequency responses and every buffer; [`LogGradFilter::run`] allocates nothing.
 pub struct LogGradFilter {
+    /// The frame size.
+    frame_width: usize,
+    frame_height: usize,
+    /// Overlapping tiles for large frames (see [`TileGrid`]); `None`: the whole frame
+    /// at once.
+    tiles: Option<TileGrid>,
+    /// The workspaces: one for the whole frame; for tiles, one per tile restored at
+    /// once (two natively, one in WebAssembly).
+    regions: Vec<Region>,
+    /// Spectral power of the frame's log image per direction (degrees, 0..180).
+    direction_power: Vec<f64>,
+}
+
+/// The planes and plans that restore one region of the frame (the whole frame, or a
+/// tile's region).
+struct Region {
+    /// The region's size.
     width: usize,
     height: usize,
     pw: usize,
@@ -401,8 +430,95 @@ pub struct LogGradFilter {
     /// Per spectrum bin: its 1-degree direction bin, or `u16::MAX` outside the band
     /// of stripe frequencies.
     direction_bin: Vec<u16>,
-    /// Spectral power of the frame's log image per direction (degrees, 0..180).
+    /// Spectral power of the region's log image per direction (degrees, 0..180).
     direction_power: Vec<f64>,
+    /// A tile's restored families before they are blended into the frame's (made at
+    /// the first tiled frame).
+    tile_out: Vec<Restored>,
+}
+
+/// Frames of more pixels than this are restored in overlapping tiles
+/// ([`LogGradFilter::for_frame`]): whole, the filter's planes (about 45 floats per
+/// pixel, 1.4 GB at 8 megapixels) and its column transforms' cache misses grow with the
+/// frame. Up to this (1920x1080 and below) the frame is restored whole, as before.
+pub const TILED_ABOVE_PIXELS: usize = 2_100_000;
+
+/// A tile's region (core, blend overlap and context on each side), pixels along each
+/// axis, before the FFT's padding: about 4 MB per plane.
+pub const TILE_SIZE: usize = 800;
+
+/// When and how a frame is restored in tiles ([`LogGradFilter::for_frame`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Tiling {
+    /// Frames of more pixels than this are restored in tiles.
+    pub above_pixels: usize,
+    /// A tile's region, pixels along each axis.
+    pub size: usize,
+}
+
+impl Default for Tiling {
+    fn default() -> Self {
+        Tiling { above_pixels: TILED_ABOVE_PIXELS, size: TILE_SIZE }
+    }
+}
+
+/// Overlapping tiles along one axis: tile `i` owns the core `[bounds[i], bounds[i+1])`,
+/// blends with its neighbours over `overlap` pixels either side of each inner core
+/// boundary (weights that ramp linearly and sum to 1), and is restored from the region
+/// `[start[i], start[i] + size)`, which holds the core, the blend zone and at least
+/// `context` pixels more on each inner side.
+#[derive(Clone, Debug, PartialEq)]
+struct TileAxis {
+    bounds: Vec<usize>,
+    start: Vec<usize>,
+    size: usize,
+    overlap: usize,
+}
+
+impl TileAxis {
+    /// Tiles for a frame `len` pixels long with regions of at most `tile` pixels
+    /// (fewer tiles where the blend zone and context leave no core).
+    fn new(len: usize, tile: usize, overlap: usize, context: usize) -> TileAxis {
+        let extra = 2 * (overlap + context);
+        let whole = TileAxis { bounds: vec![0, len], start: vec![0], size: len, overlap };
+        if len <= tile || tile < extra + 2 * overlap.max(1) {
+            return whole;
+        }
+        let n = len.div_ceil(tile - extra);
+        let bounds: Vec<usize> = (0..=n).map(|i| i * len / n).collect();
+        let core = bounds.windows(2).map(|b| b[1] - b[0]).max().unwrap_or(len);
+        if n < 2 || core < 2 * overlap {
+            return whole;
+        }
+        let size = (core + extra).min(len);
+        let start = (0..n).map(|i| bounds[i].saturating_sub(overlap + context).min(len - size)).collect();
+        TileAxis { bounds, start, size, overlap }
+    }
+
+    fn count(&self) -> usize {
+        self.start.len()
+    }
+
+    /// Tile `i`'s blend weight at frame position `x`.
+    fn weight(&self, i: usize, x: usize) -> f32 {
+        let o = self.overlap as f32;
+        let ramp = |b: usize| ((x as f32 + 0.5 - (b as f32 - o)) / (2.0 * o)).clamp(0.0, 1.0);
+        let mut w = 1.0f32;
+        if i > 0 {
+            w = w.min(ramp(self.bounds[i]));
+        }
+        if i + 1 < self.count() {
+            w = w.min(1.0 - ramp(self.bounds[i + 1]));
+        }
+        w
+    }
+}
+
+/// The tiles of a frame: rows of tiles (`y`) times columns of tiles (`x`).
+#[derive(Clone, Debug, PartialEq)]
+struct TileGrid {
+    x: TileAxis,
+    y: TileAxis,
 }
 
 /// Band of spatial frequencies (cycles per pixel) that carries the stripes: from
@@ -418,11 +534,267 @@ pub const STRIPE_BAND: (f64, f64) = (0.04, 0.25);
 pub const DOMINANT_SEARCH: f32 = 15.0 * PI / 180.0;
 
 impl LogGradFilter {
-    /// Plan for `width` x `height` frames.
+    /// Plan for `width` x `height` frames, restored whole.
     pub fn new(width: usize, height: usize) -> Result<Self> {
-        if width < MIN_SIZE || height < MIN_SIZE {
-            return Err(Error::ImageTooSmall { min: (MIN_SIZE, MIN_SIZE), got: (width, height) });
+        check_size(width, height)?;
+        Ok(LogGradFilter {
+            frame_width: width,
+            frame_height: height,
+            tiles: None,
+            regions: vec![Region::new(width, height, STRIPE_BAND)],
+            direction_power: vec![0.0; 180],
+        })
+    }
+
+    /// Plan for `width` x `height` frames whose stripes are about `period` pixels
+    /// apart, restored whole or in tiles as `tiling` says.
+    pub fn for_frame(width: usize, height: usize, period: f32, tiling: Tiling) -> Result<Self> {
+        if width * height > tiling.above_pixels {
+            Self::tiled(width, height, period, tiling.size)
+        } else {
+            Self::new(width, height)
         }
+    }
+
+    /// Plan for `width` x `height` frames restored in overlapping tiles whose regions
+    /// are at most `tile` pixels along each axis. Each tile is restored with a stripe
+    /// period of the frame around its core as context (the restoration's kernel falls
+    /// off with distance; what lies further changes the restored log image only
+    /// slowly, which decoding does not see) and blended into its neighbours over a
+    /// period either side of each seam; the dominant directions are taken from the
+    /// spectra of all tiles, and the stripe band of that estimate reaches down to the
+    /// stripes' own frequency when they are wider than the default band's.
+    pub fn tiled(width: usize, height: usize, period: f32, tile: usize) -> Result<Self> {
+        check_size(width, height)?;
+        if !(period.is_finite() && period > 0.0) {
+            return Err(Error::Internal(format!("stripe period must be positive, got {period}")));
+        }
+        let overlap = (period.ceil() as usize).clamp(8, 64);
+        let context = (period.ceil() as usize).clamp(16, 128);
+        let grid = TileGrid { x: TileAxis::new(width, tile, overlap, context), y: TileAxis::new(height, tile, overlap, context) };
+        let band = (STRIPE_BAND.0.min(0.5 / period as f64), STRIPE_BAND.1);
+        let workers = if cfg!(target_arch = "wasm32") { 1 } else { TILE_WORKERS };
+        let workers = workers.min(grid.x.count() * grid.y.count());
+        Ok(LogGradFilter {
+            frame_width: width,
+            frame_height: height,
+            regions: (0..workers).map(|_| Region::new(grid.x.size, grid.y.size, band)).collect(),
+            tiles: Some(grid),
+            direction_power: vec![0.0; 180],
+        })
+    }
+
+    /// Number of tiles the frame is restored in (1 when whole).
+    pub fn tile_count(&self) -> usize {
+        self.tiles.as_ref().map_or(1, |t| t.x.count() * t.y.count())
+    }
+
+    /// The padded FFT size of the frame, or of a tile's region when tiled, (width,
+    /// height).
+    pub fn padded_size(&self) -> (usize, usize) {
+        (self.regions[0].pw, self.regions[0].ph)
+    }
+
+    /// Restore `linear` (linear RGB in 0..=1) for the families whose direction windows
+    /// are given, writing one [`Restored`] per window into `out`. `mode` chooses
+    /// log-gradient with per-pixel angles, log-gradient at each family's dominant
+    /// angle only, or no filtering at all.
+    pub fn run(&mut self, linear: &Image<Rgb>, windows: &[FamilyWindow], mode: FilterMode, out: &mut [Restored]) -> Result<()> {
+        linear.expect_size(self.frame_width, self.frame_height)?;
+        if out.len() != windows.len() || out.iter().any(|r| r.width != self.frame_width || r.height != self.frame_height) {
+            return Err(Error::Internal("filter output does not match the families or the image size".into()));
+        }
+        if mode == FilterMode::Direct {
+            // One log image, copied to every family.
+            if let Some((first, rest)) = out.split_first_mut() {
+                for ch in 0..3 {
+                    log_plane_into(linear, ch, &mut first.log[ch]);
+                    for r in rest.iter_mut() {
+                        r.log[ch].copy_from_slice(&first.log[ch]);
+                    }
+                }
+            }
+            for (r, w) in out.iter_mut().zip(windows) {
+                r.dominant = w.expected.rem_euclid(PI);
+                r.angle.iter_mut().for_each(|a| *a = r.dominant);
+            }
+            return Ok(());
+        }
+        // With three families 60 degrees apart eq. 8's criterion is flat in the angle
+        // (see `dominant_angle`), so each family keeps its dominant angle.
+        let per_pixel = mode == FilterMode::LogGrad && windows.len() < 3;
+        match self.tiles.take() {
+            None => {
+                let region = &mut self.regions[0];
+                region.steerable_planes(linear, (0, 0), true)?;
+                self.direction_power.copy_from_slice(&region.direction_power);
+                for (r, w) in out.iter_mut().zip(windows) {
+                    r.dominant = dominant_angle(&self.direction_power, w);
+                }
+                self.regions[0].compose_families(windows, per_pixel, out);
+            }
+            Some(grid) => {
+                let done = self.run_tiled(&grid, linear, windows, per_pixel, out);
+                self.tiles = Some(grid);
+                done?;
+            }
+        }
+        if out.len() == 3 {
+            decouple(out);
+        }
+        Ok(())
+    }
+
+    /// [`LogGradFilter::run`] tile by tile: first the dominant directions from the
+    /// spectra of every tile, then each tile's restoration blended into `out`; as many
+    /// tiles at once as there are workspaces.
+    fn run_tiled(&mut self, grid: &TileGrid, linear: &Image<Rgb>, windows: &[FamilyWindow], per_pixel: bool, out: &mut [Restored]) -> Result<()> {
+        let tiles: Vec<(usize, usize)> = (0..grid.y.count()).flat_map(|ty| (0..grid.x.count()).map(move |tx| (tx, ty))).collect();
+        let origin = |&(tx, ty): &(usize, usize)| (grid.x.start[tx], grid.y.start[ty]);
+        for region in self.regions.iter_mut() {
+            region.direction_power.iter_mut().for_each(|p| *p = 0.0);
+        }
+        for batch in tiles.chunks(self.regions.len()) {
+            each_region(&mut self.regions, batch, |region, tile| region.accumulate_power(linear, origin(tile)))?;
+        }
+        for (d, bin) in self.direction_power.iter_mut().enumerate() {
+            *bin = self.regions.iter().map(|r| r.direction_power[d]).sum();
+        }
+        for (r, w) in out.iter_mut().zip(windows) {
+            r.dominant = dominant_angle(&self.direction_power, w);
+            for plane in r.log.iter_mut() {
+                plane.iter_mut().for_each(|x| *x = 0.0);
+            }
+        }
+        for batch in tiles.chunks(self.regions.len()) {
+            each_region(&mut self.regions, batch, |region, tile| {
+                region.steerable_planes(linear, origin(tile), false)?;
+                let (w, h) = (region.width, region.height);
+                let mut tile_out = std::mem::take(&mut region.tile_out);
+                tile_out.resize_with(windows.len(), || Restored::new(w, h));
+                for (t, r) in tile_out.iter_mut().zip(out.iter()) {
+                    t.dominant = r.dominant;
+                }
+                region.compose_families(windows, per_pixel, &mut tile_out);
+                region.tile_out = tile_out;
+                Ok(())
+            })?;
+            for (region, &tile) in self.regions.iter().zip(batch) {
+                blend_tile(grid, tile, &region.tile_out, out);
+            }
+        }
+        Ok(())
+    }
+
+    /// The restored log image `ĩ^φ` of every channel at one angle `phi` (radians),
+    /// for comparison with [`reference::restore_at_angle`] and for teaching. Needs a
+    /// filter that restores the frame whole.
+    pub fn restore_at_angle(&mut self, linear: &Image<Rgb>, phi: f32, out: &mut [Vec<f32>; 3]) -> Result<()> {
+        linear.expect_size(self.frame_width, self.frame_height)?;
+        if self.tiles.is_some() {
+            return Err(Error::Internal("restore_at_angle needs a filter that restores the frame whole".into()));
+        }
+        let region = &mut self.regions[0];
+        region.steerable_planes(linear, (0, 0), true)?;
+        let (al, be) = ((2.0 * phi).cos(), (2.0 * phi).sin());
+        for ch in 0..3 {
+            out[ch].resize(region.width * region.height, 0.0);
+            for (i, o) in out[ch].iter_mut().enumerate() {
+                *o = region.p[ch][i] + al * region.q[ch][i] + be * region.c[ch][i];
+            }
+        }
+        Ok(())
+    }
+}
+
+/// The frame is large enough for the filter.
+fn check_size(width: usize, height: usize) -> Result<()> {
+    if width < MIN_SIZE || height < MIN_SIZE {
+        return Err(Error::ImageTooSmall { min: (MIN_SIZE, MIN_SIZE), got: (width, height) });
+    }
+    Ok(())
+}
+
+/// How many tiles are restored at once natively (each with its own workspace, about
+/// 27 floats per pixel of a tile's region).
+pub const TILE_WORKERS: usize = 2;
+
+/// Run `f` on each region with its tile of `batch` (as many tiles as regions, or
+/// fewer): at once natively, one after the other in WebAssembly.
+fn each_region<T: Sync>(regions: &mut [Region], batch: &[T], f: impl Fn(&mut Region, &T) -> Result<()> + Sync + Send) -> Result<()> {
+    #[cfg(not(target_arch = "wasm32"))]
+    {
+        use rayon::prelude::*;
+        regions.par_iter_mut().zip(batch.par_iter()).map(|(r, t)| f(r, t)).collect::<Result<Vec<()>>>()?;
+    }
+    #[cfg(target_arch = "wasm32")]
+    for (r, t) in regions.iter_mut().zip(batch) {
+        f(r, t)?;
+    }
+    Ok(())
+}
+
+/// Add tile `(tx, ty)`'s restored families, weighted, into the frame's `out`; each
+/// pixel's angle is the one of the tile whose core holds it.
+fn blend_tile(grid: &TileGrid, (tx, ty): (usize, usize), tile_out: &[Restored], out: &mut [Restored]) {
+    let (x0, y0) = (grid.x.start[tx], grid.y.start[ty]);
+    let (tw, th) = (grid.x.size, grid.y.size);
+    let (cx0, cx1) = (grid.x.bounds[tx], grid.x.bounds[tx + 1]);
+    let (cy0, cy1) = (grid.y.bounds[ty], grid.y.bounds[ty + 1]);
+    // The tile's weights along x, where not 0 (a fixed-size array would be no smaller
+    // than the frame's row; the weight is cheap to evaluate).
+    let xs = (x0..x0 + tw).filter(|&x| grid.x.weight(tx, x) > 0.0);
+    let (xa, xb) = (xs.clone().next().unwrap_or(x0), xs.last().map_or(x0, |x| x + 1));
+    for (t, r) in tile_out.iter().zip(out.iter_mut()) {
+        let fw = r.width;
+        for y in y0..y0 + th {
+            let wy = grid.y.weight(ty, y);
+            if wy == 0.0 {
+                continue;
+            }
+            let (src, dst) = ((y - y0) * tw, y * fw);
+            for ch in 0..3 {
+                let (s, d) = (&t.log[ch][src + xa - x0..src + xb - x0], &mut r.log[ch][dst + xa..dst + xb]);
+                for (x, (d, s)) in (xa..xb).zip(d.iter_mut().zip(s)) {
+                    *d += wy * grid.x.weight(tx, x) * s;
+                }
+            }
+            if (cy0..cy1).contains(&y) {
+                r.angle[dst + cx0..dst + cx1].copy_from_slice(&t.angle[src + cx0 - x0..src + cx1 - x0]);
+            }
+        }
+    }
+}
+
+/// A family's dominant angle from the frame's spectral power per direction
+/// (`power`): the direction, within its window, in which the frame's log image has
+/// the most spectral power in the stripe band (smoothed over 5 degrees, refined by a
+/// parabola). Eq. 8's gradient criterion cannot serve here: summed over a frame with
+/// three families 60 degrees apart it is the same at every angle (cos⁴ of three such
+/// angles always sums to 9/8).
+fn dominant_angle(power: &[f64], win: &FamilyWindow) -> f32 {
+    let p = power;
+    let smooth = |d: i32| -> f64 { (-2..=2).map(|k| p[(d + k).rem_euclid(180) as usize]).sum() };
+    let centre = win.expected.to_degrees().round() as i32;
+    let steps = (win.half_width.min(DOMINANT_SEARCH).to_degrees().round() as i32).max(1);
+    let mut best = (f64::NEG_INFINITY, centre);
+    for d in centre - steps..=centre + steps {
+        let e = smooth(d);
+        if e > best.0 {
+            best = (e, d);
+        }
+    }
+    let (a, b, c) = (smooth(best.1 - 1), best.0, smooth(best.1 + 1));
+    let den = a - 2.0 * b + c;
+    let offset = if den < 0.0 { (0.5 * (a - c) / den).clamp(-0.5, 0.5) } else { 0.0 };
+    // Bin d holds directions [d, d + 1) degrees.
+    ((best.1 as f64 + 0.5 + offset) as f32).to_radians().rem_euclid(PI)
+}
+
+impl Region {
+    /// Plans and buffers for a `width` x `height` region; `band` is the stripe band of
+    /// the direction estimate (cycles per pixel).
+    fn new(width: usize, height: usize, band: (f64, f64)) -> Self {
         let (pw, ph) = (fast_size(width + PAD_MIN), fast_size(height + PAD_MIN));
         let fft = Fft2::new(pw, ph);
         let (hxx, hxy) = sobel_responses(pw, ph);
@@ -431,7 +803,7 @@ impl LogGradFilter {
         let (gw, gh) = (width.div_ceil(ANGLE_STEP), height.div_ceil(ANGLE_STEP));
         let grid = || vec![0.0f32; gw * gh];
         let spectrum_len = fft.spectrum_len();
-        Ok(LogGradFilter {
+        Region {
             width,
             height,
             pw,
@@ -451,52 +823,17 @@ impl LogGradFilter {
             choice: Vec::new(),
             tmp: plane(),
             tmp2: plane(),
-            direction_bin: direction_bins(pw, ph),
+            direction_bin: direction_bins(pw, ph, band),
             direction_power: vec![0.0; 180],
-        })
+            tile_out: Vec::new(),
+        }
     }
 
-    /// The padded FFT size, (width, height).
-    pub fn padded_size(&self) -> (usize, usize) {
-        (self.pw, self.ph)
-    }
-
-    /// Restore `linear` (linear RGB in 0..=1) for the families whose direction windows
-    /// are given, writing one [`Restored`] per window into `out`. `mode` chooses
-    /// log-gradient with per-pixel angles, log-gradient at each family's dominant
-    /// angle only, or no filtering at all.
-    pub fn run(&mut self, linear: &Image<Rgb>, windows: &[FamilyWindow], mode: FilterMode, out: &mut [Restored]) -> Result<()> {
-        linear.expect_size(self.width, self.height)?;
-        if out.len() != windows.len() || out.iter().any(|r| r.width != self.width || r.height != self.height) {
-            return Err(Error::Internal("filter output does not match the families or the image size".into()));
-        }
-        if mode == FilterMode::Direct {
-            // One log image, copied to every family.
-            if let Some((first, rest)) = out.split_first_mut() {
-                for ch in 0..3 {
-                    log_plane_into(linear, ch, &mut first.log[ch]);
-                    for r in rest.iter_mut() {
-                        r.log[ch].copy_from_slice(&first.log[ch]);
-                    }
-                }
-            }
-            for (r, w) in out.iter_mut().zip(windows) {
-                r.dominant = w.expected.rem_euclid(PI);
-                r.angle.iter_mut().for_each(|a| *a = r.dominant);
-            }
-            return Ok(());
-        }
-        self.steerable_planes(linear)?;
-        if mode == FilterMode::LogGrad && windows.len() < 3 {
-            self.criterion_planes();
-        }
-        for (r, w) in out.iter_mut().zip(windows) {
-            r.dominant = self.dominant_angle(w);
-        }
-        // With three families 60 degrees apart eq. 8's criterion is flat in the angle
-        // (see `dominant_angle`), so each family keeps its dominant angle.
-        let per_pixel = mode == FilterMode::LogGrad && windows.len() < 3;
+    /// Compose every family (whose `dominant` is set) from the planes of the image or
+    /// tile last given to `steerable_planes`, with the per-pixel angle choice or not.
+    fn compose_families(&mut self, windows: &[FamilyWindow], per_pixel: bool, out: &mut [Restored]) {
         if per_pixel {
+            self.criterion_planes();
             let g = self.gw * self.gh;
             for k in 0..6 {
                 box_filter_into(&self.m[k], &mut self.tmp2[..g], &mut self.tmp[..g], self.gw, self.gh, ANGLE_SMOOTH_RADIUS);
@@ -515,39 +852,47 @@ impl LogGradFilter {
         }
         #[cfg(target_arch = "wasm32")]
         out.iter_mut().zip(windows.iter()).zip(self.choice.iter_mut()).for_each(compose);
-        if out.len() == 3 {
-            decouple(out);
-        }
-        Ok(())
     }
 
-    /// The restored log image `ĩ^φ` of every channel at one angle `phi` (radians),
-    /// for comparison with [`reference::restore_at_angle`] and for teaching.
-    pub fn restore_at_angle(&mut self, linear: &Image<Rgb>, phi: f32, out: &mut [Vec<f32>; 3]) -> Result<()> {
-        linear.expect_size(self.width, self.height)?;
-        self.steerable_planes(linear)?;
-        let (al, be) = ((2.0 * phi).cos(), (2.0 * phi).sin());
-        for ch in 0..3 {
-            out[ch].resize(self.width * self.height, 0.0);
-            for (i, o) in out[ch].iter_mut().enumerate() {
-                *o = self.p[ch][i] + al * self.q[ch][i] + be * self.c[ch][i];
+    /// The log image of one channel of the region of `linear` at `origin` (the planes'
+    /// size), padded and transformed into `spectrum`; its `tmp` holds the log region.
+    fn forward_channel(&mut self, linear: &Image<Rgb>, origin: (usize, usize), ch: usize) -> Result<()> {
+        let (w, h, pw, ph) = (self.width, self.height, self.pw, self.ph);
+        log_region_into(linear, origin, (w, h), ch, &mut self.tmp);
+        pad_into(&self.tmp, w, h, &mut self.padded, pw, ph);
+        self.fft.forward(&self.padded, &mut self.spectrum)
+    }
+
+    /// Add the spectrum's power in the stripe band to `direction_power`.
+    fn add_direction_power(&mut self) {
+        for (bin, s) in self.direction_bin.iter().zip(&self.spectrum) {
+            if *bin != u16::MAX {
+                self.direction_power[*bin as usize] += s.norm_sqr() as f64;
             }
         }
+    }
+
+    /// Add the stripe-band power of every channel of the region at `origin` to the
+    /// region's `direction_power`.
+    fn accumulate_power(&mut self, linear: &Image<Rgb>, origin: (usize, usize)) -> Result<()> {
+        for ch in 0..3 {
+            self.forward_channel(linear, origin, ch)?;
+            self.add_direction_power();
+        }
         Ok(())
     }
 
-    /// The planes P, Q, C of every channel (eq. 5-6 for all angles at once).
-    fn steerable_planes(&mut self, linear: &Image<Rgb>) -> Result<()> {
+    /// The planes P, Q, C of every channel (eq. 5-6 for all angles at once) of the
+    /// region of `linear` at `origin`; with `power`, `direction_power` is the region's.
+    fn steerable_planes(&mut self, linear: &Image<Rgb>, origin: (usize, usize), power: bool) -> Result<()> {
         let (w, h, pw, ph) = (self.width, self.height, self.pw, self.ph);
-        self.direction_power.iter_mut().for_each(|p| *p = 0.0);
+        if power {
+            self.direction_power.iter_mut().for_each(|p| *p = 0.0);
+        }
         for ch in 0..3 {
-            log_plane_into(linear, ch, &mut self.tmp);
-            pad_into(&self.tmp, w, h, &mut self.padded, pw, ph);
-            self.fft.forward(&self.padded, &mut self.spectrum)?;
-            for (bin, s) in self.direction_bin.iter().zip(&self.spectrum) {
-                if *bin != u16::MAX {
-                    self.direction_power[*bin as usize] += s.norm_sqr() as f64;
-                }
+            self.forward_channel(linear, origin, ch)?;
+            if power {
+                self.add_direction_power();
             }
             // l̃ = l minus its components at the four null frequencies (real for a
             // real image): DC, (π,0), (0,π), (π,π).
@@ -608,31 +953,6 @@ impl LogGradFilter {
             }
         }
     }
-
-    /// The family's dominant angle: the direction, within its window, in which the
-    /// frame's log image has the most spectral power in the stripe band (smoothed over
-    /// 5 degrees, refined by a parabola). Eq. 8's gradient criterion cannot serve here:
-    /// summed over a frame with three families 60 degrees apart it is the same at every
-    /// angle (cos⁴ of three such angles always sums to 9/8).
-    fn dominant_angle(&self, win: &FamilyWindow) -> f32 {
-        let p = &self.direction_power;
-        let smooth = |d: i32| -> f64 { (-2..=2).map(|k| p[(d + k).rem_euclid(180) as usize]).sum() };
-        let centre = win.expected.to_degrees().round() as i32;
-        let steps = (win.half_width.min(DOMINANT_SEARCH).to_degrees().round() as i32).max(1);
-        let mut best = (f64::NEG_INFINITY, centre);
-        for d in centre - steps..=centre + steps {
-            let e = smooth(d);
-            if e > best.0 {
-                best = (e, d);
-            }
-        }
-        let (a, b, c) = (smooth(best.1 - 1), best.0, smooth(best.1 + 1));
-        let den = a - 2.0 * b + c;
-        let offset = if den < 0.0 { (0.5 * (a - c) / den).clamp(-0.5, 0.5) } else { 0.0 };
-        // Bin d holds directions [d, d + 1) degrees.
-        ((best.1 as f64 + 0.5 + offset) as f32).to_radians().rem_euclid(PI)
-    }
-
 }
 
 /// The planes [`LogGradFilter::run`] composes the families from, borrowed so that the
@@ -743,15 +1063,16 @@ fn join<A: Send, B: Send>(a: impl FnOnce() -> A + Send, b: impl FnOnce() -> B + 
 }
 
 /// The 1-degree direction bin of every spectrum entry (column-major layout of
-/// [`Fft2`]) whose frequency lies in [`STRIPE_BAND`]; `u16::MAX` elsewhere.
-fn direction_bins(pw: usize, ph: usize) -> Vec<u16> {
+/// [`Fft2`]) whose frequency lies in `band` (cycles per pixel, [`STRIPE_BAND`] unless
+/// the stripes are wider); `u16::MAX` elsewhere.
+fn direction_bins(pw: usize, ph: usize, band: (f64, f64)) -> Vec<u16> {
     let mut bins = vec![u16::MAX; (pw / 2 + 1) * ph];
     for k in 0..pw / 2 + 1 {
         let fx = k as f64 / pw as f64;
         for l in 0..ph {
             let fy = if l > ph / 2 { l as f64 - ph as f64 } else { l as f64 } / ph as f64;
             let f = fx.hypot(fy);
-            if f >= STRIPE_BAND.0 && f <= STRIPE_BAND.1 {
+            if f >= band.0 && f <= band.1 {
                 let deg = fy.atan2(fx).to_degrees().rem_euclid(180.0);
                 bins[k * ph + l] = (deg as u16).min(179);
             }
