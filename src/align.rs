@@ -53,7 +53,7 @@ pub const BEAM_BITS: f32 = ACCEPT_BITS + 4.0;
 const NONE: f32 = f32::NEG_INFINITY;
 
 /// Reusable tables of the alignment of one run.
-#[derive(Default)]
+#[derive(Clone, Default)]
 pub struct Aligner {
     /// Per rank, the bit of its code in a [`crate::segment::CodeMask`] widened to 64
     /// bits (bit 63, never set, for boundaries without a code).

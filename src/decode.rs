@@ -22,7 +22,7 @@
 
 use crate::align::Aligner;
 use crate::pattern::PatternSpec;
-use crate::segment::{pack, reverse, Code, CodeMask, Edge, ScanAxis, Segmentation, NO_CODE};
+use crate::segment::{pack, reverse, Code, CodeMask, Edge, ScanAxis, Segmentation, LINE_CHUNKS, NO_CODE};
 
 /// Largest distance between a boundary and its continuation on the next scan line,
 /// pixels. Scan lines are at most 45 degrees from across the stripes, so a boundary
@@ -68,14 +68,48 @@ pub struct Decoder {
     smoothed: Vec<f32>,
     /// Where each line's edges start in the flat order, and one past the last line.
     line_start: Vec<usize>,
-    /// The alignment of a run to the pattern, its masks and its ranks.
-    aligner: Aligner,
-    run_masks: Vec<u32>,
-    run_ranks: Vec<i32>,
+    /// Per chunk of lines ([`LINE_CHUNKS`], aligned at once natively): the alignment
+    /// of a run to the pattern, its masks and its ranks.
+    aligners: Vec<RunAligner>,
     /// Per edge (flat order), its boundary's continuation on the previous and on the
     /// next line ([`NO_LINK`] where there is none).
     up: Vec<u32>,
     down: Vec<u32>,
+}
+
+/// The alignment of a run to the pattern with its buffers.
+#[derive(Clone)]
+struct RunAligner {
+    aligner: Aligner,
+    masks: Vec<u32>,
+    ranks: Vec<i32>,
+}
+
+impl RunAligner {
+    /// Identify every run of `edges` by its alignment to the pattern (see
+    /// [`crate::align`]); `used` is the set of codes the pattern shows, `n_ranks` its
+    /// number of boundaries, `increasing` whether identities grow along the line.
+    fn align_line(&mut self, edges: &mut [Edge], used: CodeMask, increasing: bool, n_ranks: i32) {
+        let mut start = 0;
+        while start < edges.len() {
+            let run = edges[start].run;
+            let end = start + edges[start..].iter().take_while(|e| e.run == run).count();
+            self.masks.clear();
+            self.masks.extend(edges[start..end].iter().map(|e| e.mask));
+            self.ranks.resize(end - start, -1);
+            self.aligner.align(&self.masks, used, &mut self.ranks);
+            for (e, &r) in edges[start..end].iter_mut().zip(&self.ranks) {
+                e.id = if r < 0 {
+                    -1
+                } else if increasing {
+                    r
+                } else {
+                    n_ranks - 1 - r
+                };
+            }
+            start = end;
+        }
+    }
 }
 
 /// No continuation of a boundary on the neighbouring line.
@@ -114,9 +148,7 @@ impl Decoder {
             used_codes,
             smoothed: Vec::new(),
             line_start: Vec::new(),
-            aligner,
-            run_masks: Vec::new(),
-            run_ranks: Vec::new(),
+            aligners: vec![RunAligner { aligner, masks: Vec::new(), ranks: Vec::new() }; LINE_CHUNKS],
             up: Vec::new(),
             down: Vec::new(),
         }
@@ -155,37 +187,24 @@ impl Decoder {
 
     /// Identify the boundaries of every line of `seg` (sets `Edge::id`).
     pub fn run(&mut self, seg: &mut Segmentation) {
-        for line in seg.lines.iter_mut() {
-            self.align_line(line);
+        // Each line is aligned on its own: natively, chunks of lines at once.
+        let chunk = seg.lines.len().div_ceil(LINE_CHUNKS).max(1);
+        let (n_ranks, increasing, used) = (self.codes.len() as i32, self.increasing, self.used_codes);
+        let work = |(lines, a): (&mut [Vec<Edge>], &mut RunAligner)| {
+            for edges in lines {
+                a.align_line(edges, used, increasing, n_ranks);
+            }
+        };
+        #[cfg(not(target_arch = "wasm32"))]
+        {
+            use rayon::prelude::*;
+            seg.lines.par_chunks_mut(chunk).zip(self.aligners.par_iter_mut()).for_each(work);
         }
+        #[cfg(target_arch = "wasm32")]
+        seg.lines.chunks_mut(chunk).zip(self.aligners.iter_mut()).for_each(work);
         self.check_across_lines(seg);
         for sweep in 0..PROPAGATION_SWEEPS {
             self.propagate(seg, sweep % 2 == 0);
-        }
-    }
-
-    /// Identify every run of `edges` by its alignment to the pattern (see
-    /// [`crate::align`]).
-    fn align_line(&mut self, edges: &mut [Edge]) {
-        let n_ranks = self.codes.len() as i32;
-        let mut start = 0;
-        while start < edges.len() {
-            let run = edges[start].run;
-            let end = start + edges[start..].iter().take_while(|e| e.run == run).count();
-            self.run_masks.clear();
-            self.run_masks.extend(edges[start..end].iter().map(|e| e.mask));
-            self.run_ranks.resize(end - start, -1);
-            self.aligner.align(&self.run_masks, self.used_codes, &mut self.run_ranks);
-            for (e, &r) in edges[start..end].iter_mut().zip(&self.run_ranks) {
-                e.id = if r < 0 {
-                    -1
-                } else if self.increasing {
-                    r
-                } else {
-                    n_ranks - 1 - r
-                };
-            }
-            start = end;
         }
     }
 

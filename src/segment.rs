@@ -216,7 +216,7 @@ pub struct Segmentation {
     pub axis: Option<ScanAxis>,
     /// Boundaries per line, in increasing position.
     pub lines: Vec<Vec<Edge>>,
-    scratch: LineScratch,
+    scratch: Vec<LineScratch>,
 }
 
 impl Segmentation {
@@ -228,112 +228,145 @@ impl Segmentation {
         let (nlines, len) = axis.lines(w, h);
         self.axis = Some(axis);
         self.lines.resize_with(nlines, Vec::new);
-        let sc = &mut self.scratch;
-        for ch in 0..3 {
-            sc.signal[ch].resize(len, 0.0);
-            sc.level[ch].resize(len, 0.0);
+        // Lines are independent: natively, chunks of them run at once, each chunk with
+        // its own scratch (made at the first frame).
+        self.scratch.resize_with(LINE_CHUNKS, LineScratch::default);
+        let chunk = nlines.div_ceil(LINE_CHUNKS).max(1);
+        let input = LineInput { restored, linear, flags, axis, period, len };
+        let work = |(c, (lines, sc)): (usize, (&mut [Vec<Edge>], &mut LineScratch))| {
+            for (k, edges) in lines.iter_mut().enumerate() {
+                segment_line(&input, c * chunk + k, edges, sc);
+            }
+        };
+        #[cfg(not(target_arch = "wasm32"))]
+        {
+            use rayon::prelude::*;
+            self.lines.par_chunks_mut(chunk).zip(self.scratch.par_iter_mut()).enumerate().for_each(work);
         }
-        sc.flags.resize(len, 0);
-        sc.strength.resize(len, 0.0);
-        let mut run_id = 0u32;
-        for line in 0..nlines {
-            let edges = &mut self.lines[line];
-            edges.clear();
-            for s in 0..len {
-                let i = axis.index(line, s, w);
-                sc.flags[s] = flags[i];
-                for ch in 0..3 {
-                    sc.signal[ch][s] = restored.log[ch][i];
-                    sc.level[ch][s] = linear[i][ch];
-                }
-            }
-            let ok = |f: PixelFlags| f & UNUSABLE == 0;
-            // Edge strength: squared central differences, summed over the channels
-            // that are not dark at the three pixels involved (a dark channel's log is
-            // noise); only where the three pixels are usable.
-            sc.strength[0] = 0.0;
-            sc.strength[len - 1] = 0.0;
-            for s in 1..len - 1 {
-                let (fa, fb, fc) = (sc.flags[s - 1], sc.flags[s], sc.flags[s + 1]);
-                sc.strength[s] = if ok(fa) && ok(fb) && ok(fc) {
-                    let dark = fa | fb | fc;
-                    // Each channel weighted by how far its brighter side is above the
-                    // noise: a channel near the floor on both sides (a black stripe's
-                    // channel) has a log that is mostly noise.
-                    (0..3)
-                        .filter(|&ch| dark & (1 << (3 + ch)) == 0)
-                        .map(|ch| {
-                            let m = sc.level[ch][s - 1].max(sc.level[ch][s + 1]);
-                            let weight = m * m / (m * m + STRENGTH_NOISE_LEVEL * STRENGTH_NOISE_LEVEL);
-                            weight * (0.5 * (sc.signal[ch][s + 1] - sc.signal[ch][s - 1])).powi(2)
-                        })
-                        .sum()
-                } else {
-                    0.0
-                };
-            }
-            // Local maxima (strict on the right so plateaus give one edge), then
-            // parabolic sub-pixel refinement.
-            let mut s = 1;
-            while s + 1 < len {
-                if !ok(sc.flags[s]) {
-                    run_id += 1;
-                    // Skip the unusable stretch.
-                    while s + 1 < len && !ok(sc.flags[s]) {
-                        s += 1;
-                    }
-                    continue;
-                }
-                let (a, b, c) = (sc.strength[s - 1], sc.strength[s], sc.strength[s + 1]);
-                let wider = |k: isize| {
-                    let t = s as isize + k;
-                    t < 0 || t >= len as isize || sc.strength[t as usize] <= b
-                };
-                if b >= MIN_EDGE_STRENGTH && b >= a && b > c && wider(-2) && wider(2) {
-                    // Sub-pixel position from the linear-light gradient: camera blur
-                    // acts on linear light, so a blurred step's linear gradient peaks
-                    // at the step while its log gradient leans to the darker side.
-                    // The linear-light gradient at s-2..=s+2 (0 at the line's ends),
-                    // from the exponentials of s-3..=s+3, each taken once.
-                    let mut ex = [[0f32; 7]; 3];
-                    for (k, t) in (s as isize - 3..=s as isize + 3).enumerate() {
-                        if t >= 0 && (t as usize) < len {
-                            for ch in 0..3 {
-                                ex[ch][k] = sc.signal[ch][t as usize].exp();
-                            }
-                        }
-                    }
-                    let mut lin = [0f32; 5];
-                    for (k, g) in lin.iter_mut().enumerate() {
-                        let t = s + k;
-                        // t - 2 is the position; it needs both neighbours on the line.
-                        if t >= 3 && t - 2 + 1 < len {
-                            *g = (0..3).map(|ch| (0.5 * (ex[ch][k + 2] - ex[ch][k])).powi(2)).sum();
-                        }
-                    }
-                    let lin = |t: usize| lin[t + 2 - s];
-                    // The log strength leaves out channels that are dark on a side,
-                    // which can move its peak a pixel towards the bright side (black
-                    // stripes): the linear gradient's own peak, a pixel either way, is
-                    // where the parabola goes.
-                    let mut p = s;
-                    if p >= 2 && lin(p - 1) > lin(p) && lin(p - 1) >= lin(p + 1) {
-                        p -= 1;
-                    } else if p + 2 < len && lin(p + 1) > lin(p) {
-                        p += 1;
-                    }
-                    let (a, b, c) = (lin(p - 1), lin(p), lin(p + 1));
-                    let den = a - 2.0 * b + c;
-                    let offset = if den < 0.0 { (0.5 * (a - c) / den).clamp(-0.5, 0.5) } else { 0.0 };
-                    edges.push(Edge { pos: p as f32 + offset, code: NO_CODE, mask: 0, run: run_id, id: -1 });
-                }
-                s += 1;
-            }
-            run_id += 1;
-            classify(edges, sc, period);
-            edges.retain(|e| e.mask != 0);
+        #[cfg(target_arch = "wasm32")]
+        self.lines.chunks_mut(chunk).zip(self.scratch.iter_mut()).enumerate().for_each(work);
+    }
+}
+
+/// How many chunks of lines segmentation (and identification) split a family's lines
+/// into: more than the cores, so that chunks of busy and empty lines even out.
+pub const LINE_CHUNKS: usize = 8;
+
+/// What every line of one family's segmentation reads.
+struct LineInput<'a> {
+    restored: &'a Restored,
+    linear: &'a [Rgb],
+    flags: &'a [PixelFlags],
+    axis: ScanAxis,
+    period: f32,
+    len: usize,
+}
+
+/// The boundaries of line `line` into `edges`. Runs of usable pixels are numbered
+/// along the line (an edge's `run` is only compared with its own line's).
+fn segment_line(input: &LineInput, line: usize, edges: &mut Vec<Edge>, sc: &mut LineScratch) {
+    let LineInput { restored, linear, flags, axis, period, len } = *input;
+    let w = restored.width;
+    for ch in 0..3 {
+        sc.signal[ch].resize(len, 0.0);
+        sc.level[ch].resize(len, 0.0);
+    }
+    sc.flags.resize(len, 0);
+    sc.strength.resize(len, 0.0);
+    let mut run_id = 0u32;
+    edges.clear();
+    for s in 0..len {
+        let i = axis.index(line, s, w);
+        sc.flags[s] = flags[i];
+        for ch in 0..3 {
+            sc.signal[ch][s] = restored.log[ch][i];
+            sc.level[ch][s] = linear[i][ch];
         }
     }
+    let ok = |f: PixelFlags| f & UNUSABLE == 0;
+    // Edge strength: squared central differences, summed over the channels
+    // that are not dark at the three pixels involved (a dark channel's log is
+    // noise); only where the three pixels are usable.
+    sc.strength[0] = 0.0;
+    sc.strength[len - 1] = 0.0;
+    for s in 1..len - 1 {
+        let (fa, fb, fc) = (sc.flags[s - 1], sc.flags[s], sc.flags[s + 1]);
+        sc.strength[s] = if ok(fa) && ok(fb) && ok(fc) {
+            let dark = fa | fb | fc;
+            // Each channel weighted by how far its brighter side is above the
+            // noise: a channel near the floor on both sides (a black stripe's
+            // channel) has a log that is mostly noise.
+            (0..3)
+                .filter(|&ch| dark & (1 << (3 + ch)) == 0)
+                .map(|ch| {
+                    let m = sc.level[ch][s - 1].max(sc.level[ch][s + 1]);
+                    let weight = m * m / (m * m + STRENGTH_NOISE_LEVEL * STRENGTH_NOISE_LEVEL);
+                    weight * (0.5 * (sc.signal[ch][s + 1] - sc.signal[ch][s - 1])).powi(2)
+                })
+                .sum()
+        } else {
+            0.0
+        };
+    }
+    // Local maxima (strict on the right so plateaus give one edge), then
+    // parabolic sub-pixel refinement.
+    let mut s = 1;
+    while s + 1 < len {
+        if !ok(sc.flags[s]) {
+            run_id += 1;
+            // Skip the unusable stretch.
+            while s + 1 < len && !ok(sc.flags[s]) {
+                s += 1;
+            }
+            continue;
+        }
+        let (a, b, c) = (sc.strength[s - 1], sc.strength[s], sc.strength[s + 1]);
+        let wider = |k: isize| {
+            let t = s as isize + k;
+            t < 0 || t >= len as isize || sc.strength[t as usize] <= b
+        };
+        if b >= MIN_EDGE_STRENGTH && b >= a && b > c && wider(-2) && wider(2) {
+            // Sub-pixel position from the linear-light gradient: camera blur
+            // acts on linear light, so a blurred step's linear gradient peaks
+            // at the step while its log gradient leans to the darker side.
+            // The linear-light gradient at s-2..=s+2 (0 at the line's ends),
+            // from the exponentials of s-3..=s+3, each taken once.
+            let mut ex = [[0f32; 7]; 3];
+            for (k, t) in (s as isize - 3..=s as isize + 3).enumerate() {
+                if t >= 0 && (t as usize) < len {
+                    for ch in 0..3 {
+                        ex[ch][k] = sc.signal[ch][t as usize].exp();
+                    }
+                }
+            }
+            let mut lin = [0f32; 5];
+            for (k, g) in lin.iter_mut().enumerate() {
+                let t = s + k;
+                // t - 2 is the position; it needs both neighbours on the line.
+                if t >= 3 && t - 2 + 1 < len {
+                    *g = (0..3).map(|ch| (0.5 * (ex[ch][k + 2] - ex[ch][k])).powi(2)).sum();
+                }
+            }
+            let lin = |t: usize| lin[t + 2 - s];
+            // The log strength leaves out channels that are dark on a side,
+            // which can move its peak a pixel towards the bright side (black
+            // stripes): the linear gradient's own peak, a pixel either way, is
+            // where the parabola goes.
+            let mut p = s;
+            if p >= 2 && lin(p - 1) > lin(p) && lin(p - 1) >= lin(p + 1) {
+                p -= 1;
+            } else if p + 2 < len && lin(p + 1) > lin(p) {
+                p += 1;
+            }
+            let (a, b, c) = (lin(p - 1), lin(p), lin(p + 1));
+            let den = a - 2.0 * b + c;
+            let offset = if den < 0.0 { (0.5 * (a - c) / den).clamp(-0.5, 0.5) } else { 0.0 };
+            edges.push(Edge { pos: p as f32 + offset, code: NO_CODE, mask: 0, run: run_id, id: -1 });
+        }
+        s += 1;
+    }
+    classify(edges, sc, period);
+    edges.retain(|e| e.mask != 0);
 }
 
 /// What one side of a boundary shows in one channel.
