@@ -27,7 +27,8 @@ pub fn neighbour_tolerance(z: f32) -> f32 {
 pub const MIN_SUPPORT: usize = 3;
 
 /// Merge per-family depth maps (NaN = none) with their weights into `out`, and the
-/// bit mask of contributing families into `families`.
+/// bit mask of contributing families into `families`. An empty weight plane weighs
+/// every pixel 1 (a single family needs none).
 pub fn merge_into<D: AsRef<[f32]>>(depths: &[D], weights: &[Vec<f32>], out: &mut [f32], families: &mut [u8]) {
     for i in 0..out.len() {
         let (mut sum, mut wsum, mut mask) = (0.0f64, 0.0f64, 0u8);
@@ -36,8 +37,9 @@ pub fn merge_into<D: AsRef<[f32]>>(depths: &[D], weights: &[Vec<f32>], out: &mut
             if z.is_nan() {
                 continue;
             }
-            sum += z as f64 * w[i] as f64;
-            wsum += w[i] as f64;
+            let w = w.get(i).map_or(1.0, |&w| w as f64);
+            sum += z as f64 * w;
+            wsum += w;
             mask |= 1 << k;
         }
         families[i] = 0;

@@ -325,7 +325,8 @@ impl Scanner {
             filter: LogGradFilter::for_frame(w, h, period, config.tiling)?,
             restored: (0..n).map(|_| Restored::new(w, h)).collect(),
             segmentations: (0..n).map(|_| Segmentation::default()).collect(),
-            weights: (0..n).map(|_| plane()).collect(),
+            // A single family is not merged: it needs no weights.
+            weights: (0..n).map(|_| if n > 1 { plane() } else { Vec::new() }).collect(),
             merged_families: vec![0; w * h],
             scratch: Vec::new(),
             family_scratch: (0..n).map(|_| Vec::new()).collect(),

@@ -113,17 +113,23 @@ impl Triangulator {
     }
 
     /// Depth of every pixel with a stripe coordinate (NaN elsewhere) into `depth`, and
-    /// its merge weight `1 / (dz/dq)²` into `weight`.
+    /// its merge weight `1 / (dz/dq)²` into `weight` unless that is empty (a single
+    /// family is not merged).
     pub fn family_depth_into(&self, family: usize, q: &[f32], depth: &mut [f32], weight: &mut [f32]) {
-        for (i, ((&qi, d), wt)) in q.iter().zip(depth.iter_mut()).zip(weight.iter_mut()).enumerate() {
+        let weigh = !weight.is_empty();
+        for (i, (&qi, d)) in q.iter().zip(depth.iter_mut()).enumerate() {
             *d = f32::NAN;
-            *wt = 0.0;
+            if weigh {
+                weight[i] = 0.0;
+            }
             if qi.is_nan() {
                 continue;
             }
             if let Some((z, dzdq)) = self.depth(family, i, qi as f64) {
                 *d = z as f32;
-                *wt = (1.0 / (dzdq * dzdq).max(1e-9)) as f32;
+                if weigh {
+                    weight[i] = (1.0 / (dzdq * dzdq).max(1e-9)) as f32;
+                }
             }
         }
     }

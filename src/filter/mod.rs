@@ -676,6 +676,7 @@ impl LogGradFilter {
                     t.dominant = r.dominant;
                 }
                 region.compose_families(windows, per_pixel, &mut tile_out);
+                weigh_tile(grid, *tile, &mut tile_out, &mut region.tmp);
                 region.tile_out = tile_out;
                 Ok(())
             })?;
@@ -734,29 +735,45 @@ fn each_region<T: Sync>(regions: &mut [Region], batch: &[T], f: impl Fn(&mut Reg
     Ok(())
 }
 
-/// Add tile `(tx, ty)`'s restored families, weighted, into the frame's `out`; each
-/// pixel's angle is the one of the tile whose core holds it.
+/// Multiply tile `(tx, ty)`'s restored families by its blend weights (done for each
+/// tile at once, so that adding them into the frame, one after the other, is a plain
+/// sum); `wx` takes the weights along x.
+fn weigh_tile(grid: &TileGrid, (tx, ty): (usize, usize), tile_out: &mut [Restored], wx: &mut [f32]) {
+    let (x0, y0, tw) = (grid.x.start[tx], grid.y.start[ty], grid.x.size);
+    for (x, w) in (x0..x0 + tw).zip(wx.iter_mut()) {
+        *w = grid.x.weight(tx, x);
+    }
+    for t in tile_out.iter_mut() {
+        for plane in t.log.iter_mut() {
+            for (row, y) in plane.chunks_exact_mut(tw).zip(y0..) {
+                let wy = grid.y.weight(ty, y);
+                for (v, w) in row.iter_mut().zip(&wx[..tw]) {
+                    *v *= wy * w;
+                }
+            }
+        }
+    }
+}
+
+/// Add tile `(tx, ty)`'s weighted restored families ([`weigh_tile`]) into the frame's
+/// `out`; each pixel's angle is the one of the tile whose core holds it.
 fn blend_tile(grid: &TileGrid, (tx, ty): (usize, usize), tile_out: &[Restored], out: &mut [Restored]) {
     let (x0, y0) = (grid.x.start[tx], grid.y.start[ty]);
     let (tw, th) = (grid.x.size, grid.y.size);
     let (cx0, cx1) = (grid.x.bounds[tx], grid.x.bounds[tx + 1]);
     let (cy0, cy1) = (grid.y.bounds[ty], grid.y.bounds[ty + 1]);
-    // The tile's weights along x, where not 0 (a fixed-size array would be no smaller
-    // than the frame's row; the weight is cheap to evaluate).
-    let xs = (x0..x0 + tw).filter(|&x| grid.x.weight(tx, x) > 0.0);
-    let (xa, xb) = (xs.clone().next().unwrap_or(x0), xs.last().map_or(x0, |x| x + 1));
+    // Where the tile's weight is not 0: its core and the blend zones beside it.
+    let o = grid.x.overlap;
+    let (xa, xb) = (cx0.saturating_sub(o).max(x0), (cx1 + o).min(x0 + tw));
+    let (ya, yb) = (cy0.saturating_sub(grid.y.overlap).max(y0), (cy1 + grid.y.overlap).min(y0 + th));
     for (t, r) in tile_out.iter().zip(out.iter_mut()) {
         let fw = r.width;
-        for y in y0..y0 + th {
-            let wy = grid.y.weight(ty, y);
-            if wy == 0.0 {
-                continue;
-            }
+        for y in ya..yb {
             let (src, dst) = ((y - y0) * tw, y * fw);
             for ch in 0..3 {
                 let (s, d) = (&t.log[ch][src + xa - x0..src + xb - x0], &mut r.log[ch][dst + xa..dst + xb]);
-                for (x, (d, s)) in (xa..xb).zip(d.iter_mut().zip(s)) {
-                    *d += wy * grid.x.weight(tx, x) * s;
+                for (d, s) in d.iter_mut().zip(s) {
+                    *d += s;
                 }
             }
             if (cy0..cy1).contains(&y) {
