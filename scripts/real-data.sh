@@ -28,13 +28,14 @@
 #    calibration.m is Bouguet-style text (camera left, projector right, X_p = R X_c + T,
 #    T in mm), imported as it is.
 #
-# Figures at commit 0472100 (coverage = object pixels with a point; fit = least squares):
+# Figures on 2026-12-01 (coverage = object pixels with a point; fit = least squares;
+# docs/third-party.md has the earlier ones):
 #   zion default (gamma 2.2)           0 points: the black gaps are below the dark level
-#   zion linear (gamma 1)              16.6 %, radius 93.3 mm, RMS 0.73 mm
-#   zion linear, measured mixing        0 points
-#   zion linear, green-into-blue only  37.6 %, radius 97.3 mm, RMS 1.09 mm, 6.9 % > 2 mm
-#   tingck wall                         5.1 %, plane RMS 13.1 mm (4.7 mm within 10 mm, 80 %)
-#   tingck hand                         0.05 %
+#   zion linear (gamma 1)              30.3 %, radius 96.4 mm, RMS 0.95 mm, 4.6 % > 2 mm
+#   zion linear, measured mixing        3.6 %, radius 93.4 mm, RMS 0.44 mm
+#   zion linear, green-into-blue only  30.7 %, radius 97.1 mm, RMS 1.01 mm, 4.8 % > 2 mm
+#   tingck wall                         7.6 %, plane RMS 11.9 mm (4.8 mm within 10 mm, 81 %)
+#   tingck hand                         0.61 %
 #
 # Needs: cargo, python3 (standard library only), git when MIRRORS holds git directories.
 set -euo pipefail
