@@ -126,10 +126,9 @@ pub fn native_clock() -> f64 {
 /// into buffers it made once; nothing here is a copy of something else.
 #[derive(Clone, Debug, Default)]
 pub struct ScanResult {
-    /// The merged cloud (family masks say which families measured each point).
+    /// The merged cloud (family masks say which families measured each point). Each
+    /// family's own cloud is made when asked ([`Scanner::layer`]).
     pub cloud: Cloud,
-    /// Each family's own cloud (family mask `1 << k`).
-    pub family_clouds: Vec<Cloud>,
     /// Merged depth (Z, mm, camera frame) per camera pixel; NaN where none.
     pub depth: Image<f32>,
     /// Each family's depth map, the same way.
@@ -160,17 +159,6 @@ impl ScanResult {
             }
         }
         out
-    }
-
-    /// The cloud of a layer: `None` for the merged cloud, `Some(k)` for family k's.
-    pub fn layer(&self, family: Option<usize>) -> Result<&Cloud> {
-        match family {
-            None => Ok(&self.cloud),
-            Some(k) => self.family_clouds.get(k).ok_or_else(|| Error::Setting {
-                name: "layer",
-                problem: format!("family {k} does not exist (the pattern has {})", self.family_clouds.len()),
-            }),
-        }
     }
 }
 
@@ -212,6 +200,19 @@ pub struct Scanner {
     family_ms: Vec<[f64; 4]>,
     result: ScanResult,
     scanned: bool,
+}
+
+/// The points of `depth` (NaN: none) into `cloud`, coloured from `frame`, with the
+/// family mask `families(i)` of pixel i.
+fn fill_cloud(triangulator: &Triangulator, frame: &Image<[u8; 3]>, depth: &Image<f32>, families: &dyn Fn(usize) -> u8, cloud: &mut Cloud) {
+    let w = depth.width();
+    let frame = frame.pixels();
+    cloud.clear();
+    for (i, &z) in depth.pixels().iter().enumerate() {
+        if !z.is_nan() {
+            cloud.push(triangulator.point(i, z), frame[i], [(i % w) as f32, (i / w) as f32], families(i));
+        }
+    }
 }
 
 /// What the calibration predicts about a family's stripes in the camera image.
@@ -339,7 +340,6 @@ impl Scanner {
             result: ScanResult {
                 depth: Image::new(w, h, f32::NAN),
                 family_depth: (0..n).map(|_| Image::new(w, h, f32::NAN)).collect(),
-                family_clouds: vec![Cloud::default(); n],
                 stripe_coords: (0..n).map(|_| plane()).collect(),
                 stripe_geometry: spec.families.iter().map(|f| (f.origin as f32, f.stripe_width as f32)).collect(),
                 ..Default::default()
@@ -497,21 +497,10 @@ impl Scanner {
         merge::remove_isolated(r.depth.pixels_mut(), w, h, &mut self.scratch);
         clock.lap("merge", &mut laps);
 
-        let frame = self.frame.pixels();
-        let triangulator = &self.triangulator;
-        let fill = |cloud: &mut Cloud, depth: &Image<f32>, families: &dyn Fn(usize) -> u8| {
-            cloud.clear();
-            for (i, &z) in depth.pixels().iter().enumerate() {
-                if !z.is_nan() {
-                    cloud.push(triangulator.point(i, z), frame[i], [(i % w) as f32, (i / w) as f32], families(i));
-                }
-            }
-        };
-        fill(&mut r.cloud, &r.depth, &|i| self.merged_families[i]);
+        fill_cloud(&self.triangulator, &self.frame, &r.depth, &|i| self.merged_families[i], &mut r.cloud);
         r.stats.decoded.clear();
-        for k in 0..families {
-            fill(&mut r.family_clouds[k], &r.family_depth[k], &|_| 1 << k);
-            r.stats.decoded.push(r.family_clouds[k].len());
+        for depth in &r.family_depth {
+            r.stats.decoded.push(depth.pixels().iter().filter(|z| !z.is_nan()).count());
         }
         // Filled in place: the per-frame path reuses the stats' vectors and string.
         let stats = &mut r.stats;
@@ -531,6 +520,26 @@ impl Scanner {
     /// The result of the last scan.
     pub fn result(&self) -> &ScanResult {
         &self.result
+    }
+
+    /// The cloud of a layer of the last scan: `None` for the merged cloud (the
+    /// result's), `Some(k)` for family k's own (family mask `1 << k`), made from its
+    /// depth map when asked: live frames show the merged cloud only, and three clouds
+    /// of a large frame would cost hundreds of megabytes.
+    pub fn layer(&self, family: Option<usize>) -> Result<std::borrow::Cow<'_, Cloud>> {
+        let r = &self.result;
+        match family {
+            None => Ok(std::borrow::Cow::Borrowed(&r.cloud)),
+            Some(k) => {
+                let depth = r.family_depth.get(k).ok_or_else(|| Error::Setting {
+                    name: "layer",
+                    problem: format!("family {k} does not exist (the pattern has {})", r.family_depth.len()),
+                })?;
+                let mut cloud = Cloud::default();
+                fill_cloud(&self.triangulator, &self.frame, depth, &|_| 1 << k, &mut cloud);
+                Ok(std::borrow::Cow::Owned(cloud))
+            }
+        }
     }
 
     /// Each family's restored log image from the last scan (for tests and tools).

@@ -312,8 +312,8 @@ impl WasmScanner {
     /// A cloud of the last scan as `{positions, colors, pixels, families}`: the merged
     /// cloud when `family` is `undefined`, family `family`'s own cloud otherwise.
     pub fn cloud(&self, family: Option<u32>) -> Result<Object, JsError> {
-        let cloud = self.inner.result().layer(family.map(|k| k as usize)).map_err(js_error)?;
-        cloud_to_js(cloud)
+        let cloud = self.inner.layer(family.map(|k| k as usize)).map_err(js_error)?;
+        cloud_to_js(&cloud)
     }
 
     /// The merged depth of the last scan, Z in mm per camera pixel, row-major; NaN

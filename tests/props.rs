@@ -49,7 +49,7 @@ use std::sync::OnceLock;
 use stripelight::calib::{ApproxRig, Crosstalk, IDENTITY_CROSSTALK};
 use stripelight::filter::FilterMode;
 use stripelight::pattern::{binary_palette, windowed_sequence, Family, SPEC_FORMAT, SPEC_VERSION};
-use stripelight::scan::{ScanConfig, ScanResult, Scanner};
+use stripelight::scan::{ScanConfig, Scanner};
 use stripelight::sim::{self, Scene, SimConfig};
 use stripelight::{io, Calibration, Error, Image, PatternSpec};
 
@@ -899,17 +899,17 @@ fn build_frame(r: &FrameRecipe, w: usize, h: usize, spec: &PatternSpec, calib: &
 /// depths or NaN ("no depth"), every cloud point is finite and is the depth map's pixel
 /// it claims to come from, with that pixel's colour, and the correspondences are finite
 /// where (and only where) their family has a depth.
-fn check_result(r: &ScanResult, frame: &Image<[u8; 3]>, families: usize) -> Result<(), String> {
+fn check_result(scanner: &Scanner, frame: &Image<[u8; 3]>, families: usize) -> Result<(), String> {
+    let r = scanner.result();
     let (w, h) = frame.size();
-    if r.depth.size() != (w, h) || r.family_depth.len() != families || r.family_clouds.len() != families {
-        return Err(format!(
-            "result shapes: depth {:?}, {} family depths, {} family clouds for a {w}x{h} frame and {families} families",
-            r.depth.size(),
-            r.family_depth.len(),
-            r.family_clouds.len()
-        ));
+    if r.depth.size() != (w, h) || r.family_depth.len() != families {
+        return Err(format!("result shapes: depth {:?}, {} family depths for a {w}x{h} frame and {families} families", r.depth.size(), r.family_depth.len()));
     }
-    let layers = std::iter::once((&r.depth, &r.cloud, None)).chain(r.family_depth.iter().zip(&r.family_clouds).enumerate().map(|(k, (d, c))| (d, c, Some(k))));
+    let family_clouds = (0..families).map(|k| scanner.layer(Some(k)).map(|c| c.into_owned())).collect::<Result<Vec<_>, _>>().map_err(|e| format!("family cloud: {e}"))?;
+    if scanner.layer(Some(families)).is_ok() {
+        return Err(format!("a cloud of family {families} of {families}"));
+    }
+    let layers = std::iter::once((&r.depth, &r.cloud, None)).chain(r.family_depth.iter().zip(&family_clouds).enumerate().map(|(k, (d, c))| (d, c, Some(k))));
     for (depth, cloud, family) in layers {
         let name = family.map_or("merged".to_string(), |k| format!("family {k}"));
         if depth.size() != (w, h) {
@@ -960,7 +960,7 @@ fn check_result(r: &ScanResult, frame: &Image<[u8; 3]>, families: usize) -> Resu
         }
     }
     let s = &r.stats;
-    let decoded: Vec<usize> = r.family_clouds.iter().map(|c| c.len()).collect();
+    let decoded: Vec<usize> = family_clouds.iter().map(|c| c.len()).collect();
     if (s.width, s.height, s.merged) != (w, h, r.cloud.len()) || s.decoded != decoded {
         return Err(format!("stats {s:?} disagree with the result ({w}x{h}, {} merged, {decoded:?})", r.cloud.len()));
     }
@@ -1012,9 +1012,10 @@ fn run_scan_case(case: ScanCase) -> Result<&'static str, String> {
     }
     for (k, frame) in frames.iter().enumerate() {
         // A frame of the right size is always a result, however little decodes.
-        let result = scanner.scan(frame).map_err(|e| format!("frame {k} of the right size is refused: {e}"))?;
-        check_result(result, frame, families).map_err(|e| format!("frame {k}: {e}"))?;
-        decoded |= !result.cloud.is_empty() || result.family_clouds.iter().any(|c| !c.is_empty());
+        scanner.scan(frame).map_err(|e| format!("frame {k} of the right size is refused: {e}"))?;
+        check_result(&scanner, frame, families).map_err(|e| format!("frame {k}: {e}"))?;
+        let result = scanner.result();
+        decoded |= !result.cloud.is_empty() || result.stats.decoded.iter().any(|&n| n > 0);
         if w * h <= 64 * 64 {
             // The teaching view's pictures of every stage.
             let stages = scanner.stages();
@@ -1136,8 +1137,8 @@ fn scan_small(spec: PatternSpec, calib: Calibration, seed: u64) -> Result<&'stat
         Err(e) => return one_line(&e).map(|_| "scanner refused"),
     };
     for frame in &frames {
-        let result = scanner.scan(frame).map_err(|e| format!("a frame of the right size is refused: {e}"))?;
-        check_result(result, frame, families)?;
+        scanner.scan(frame).map_err(|e| format!("a frame of the right size is refused: {e}"))?;
+        check_result(&scanner, frame, families)?;
     }
     Ok("scanned")
 }

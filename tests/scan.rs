@@ -39,7 +39,7 @@ fn stored_frame_decodes_to_the_true_depth() {
     let frame = io::decode_rgb8(FRAME).unwrap();
     let truth = io::decode_pfm(DEPTH).unwrap();
     let mut scanner = Scanner::new(spec, Calibration::demo(), sample_config()).unwrap();
-    let result = scanner.scan(&frame).unwrap();
+    let result = scanner.scan(&frame).unwrap().clone();
     let (mut surface, mut decoded, mut outliers) = (0, 0, 0);
     for (&z, &t) in result.depth.pixels().iter().zip(truth.pixels()) {
         surface += t.is_finite() as usize;
@@ -66,10 +66,13 @@ fn stored_frame_decodes_to_the_true_depth() {
         assert_eq!(cloud.position(i)[2], result.depth.get(u, v), "point {i} at ({u}, {v})");
     }
     // The family clouds are the family depth maps, point for point.
-    for (k, (c, d)) in result.family_clouds.iter().zip(&result.family_depth).enumerate() {
+    for (k, d) in result.family_depth.iter().enumerate() {
+        let c = scanner.layer(Some(k)).unwrap();
         assert_eq!(c.len(), d.pixels().iter().filter(|z| !z.is_nan()).count(), "family {k}");
+        assert_eq!(c.len(), result.stats.decoded[k], "family {k}");
         assert!(c.families.iter().all(|&f| f == 1 << k));
     }
+    assert!(scanner.layer(Some(2)).is_err());
 }
 }
 
