@@ -14,7 +14,7 @@ use crate::error::{Error, Result};
 use crate::filter::{smooth_along_stripes, FamilyWindow, FilterMode, LogGradFilter, Restored, Tiling};
 use crate::merge;
 use crate::pattern::PatternSpec;
-use crate::raster::{detect_chroma_pairs, gamma_lut, interpolate_chroma_into, rgb8_to_linear_lut, rgba8_into, ChromaPairs, Image, Rgb};
+use crate::raster::{detect_chroma_pairs, gamma_lut, interpolate_chroma_into, rgba8_into, ChromaPairs, Image, Rgb};
 use crate::segment::{pixel_flags_into, PixelFlags, ScanAxis, Segmentation};
 use crate::stages::{Stage, StageInputs};
 use crate::triangulate::Triangulator;
@@ -282,6 +282,10 @@ pub fn predict_families(spec: &PatternSpec, calib: &Calibration) -> Result<Vec<F
 /// depth edges, where the box reaches across the occlusion (occluders 94.5 -> 92.5 %).
 pub const SMOOTH_MIN_FAMILIES: usize = 3;
 
+/// How many chunks of the frame linearization splits it into (natively they run at
+/// once).
+const LINEARIZE_CHUNKS: usize = 8;
+
 /// A stripe wider than this many predicted periods is not bridged (surfaces slanted
 /// away from the projector stretch stripes; much wider means a missed boundary).
 const MAX_STRIPE_PERIODS: f32 = 3.0;
@@ -420,13 +424,30 @@ impl Scanner {
             interpolate_chroma_into(&self.frame, pairs, &mut self.chroma_blocks, &mut self.interpolated);
             &self.interpolated
         };
-        rgb8_to_linear_lut(colour, &self.lut, &mut self.linear);
-        if let Some(m) = self.unmix {
-            for p in self.linear.pixels_mut() {
-                *p = (m * glam::Vec3::from_array(*p)).max(glam::Vec3::ZERO).to_array();
+        // Gamma and the colour mixing undone, and the pixel flags, in chunks of the
+        // frame that natively run at once.
+        let (lut, unmix) = (&self.lut, self.unmix);
+        let chunk = (w * h).div_ceil(LINEARIZE_CHUNKS).max(1);
+        let linearize = |((colour, frame), (linear, flags)): ((&[[u8; 3]], &[[u8; 3]]), (&mut [Rgb], &mut [PixelFlags]))| {
+            for (d, s) in linear.iter_mut().zip(colour) {
+                *d = [lut[s[0] as usize], lut[s[1] as usize], lut[s[2] as usize]];
+                if let Some(m) = unmix {
+                    *d = (m * glam::Vec3::from_array(*d)).max(glam::Vec3::ZERO).to_array();
+                }
             }
-        }
-        let usable = pixel_flags_into(self.frame.pixels(), self.linear.pixels(), &mut self.flags);
+            pixel_flags_into(frame, linear, flags)
+        };
+        #[cfg(not(target_arch = "wasm32"))]
+        let usable: usize = {
+            use rayon::prelude::*;
+            let inputs = colour.pixels().par_chunks(chunk).zip(self.frame.pixels().par_chunks(chunk));
+            inputs.zip(self.linear.pixels_mut().par_chunks_mut(chunk).zip(self.flags.par_chunks_mut(chunk))).map(linearize).sum()
+        };
+        #[cfg(target_arch = "wasm32")]
+        let usable: usize = {
+            let inputs = colour.pixels().chunks(chunk).zip(self.frame.pixels().chunks(chunk));
+            inputs.zip(self.linear.pixels_mut().chunks_mut(chunk).zip(self.flags.chunks_mut(chunk))).map(linearize).sum()
+        };
         clock.lap("linearize", &mut laps);
         self.filter.run(&self.linear, &self.windows, self.config.filter, &mut self.restored)?;
         clock.lap("filter", &mut laps);
