@@ -573,7 +573,10 @@ impl LogGradFilter {
         let context = (period.ceil() as usize).clamp(16, 128);
         let grid = TileGrid { x: TileAxis::new(width, tile, overlap, context), y: TileAxis::new(height, tile, overlap, context) };
         let band = (STRIPE_BAND.0.min(0.5 / period as f64), STRIPE_BAND.1);
-        let workers = if cfg!(target_arch = "wasm32") { 1 } else { TILE_WORKERS };
+        #[cfg(not(target_arch = "wasm32"))]
+        let workers = rayon::current_num_threads().clamp(1, TILE_WORKERS);
+        #[cfg(target_arch = "wasm32")]
+        let workers = 1;
         let workers = workers.min(grid.x.count() * grid.y.count());
         Ok(LogGradFilter {
             frame_width: width,
@@ -716,8 +719,8 @@ fn check_size(width: usize, height: usize) -> Result<()> {
     Ok(())
 }
 
-/// How many tiles are restored at once natively (each with its own workspace, about
-/// 27 floats per pixel of a tile's region).
+/// How many tiles are restored at once natively, at most (each with its own workspace,
+/// about 27 floats per pixel of a tile's region), and no more than rayon has threads.
 pub const TILE_WORKERS: usize = 2;
 
 /// Run `f` on each region with its tile of `batch` (as many tiles as regions, or
