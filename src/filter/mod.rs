@@ -519,6 +519,15 @@ impl TileAxis {
 struct TileGrid {
     x: TileAxis,
     y: TileAxis,
+    /// Every tile's (column, row), row after row.
+    order: Vec<(usize, usize)>,
+}
+
+impl TileGrid {
+    fn new(x: TileAxis, y: TileAxis) -> Self {
+        let order = (0..y.count()).flat_map(|ty| (0..x.count()).map(move |tx| (tx, ty))).collect();
+        TileGrid { x, y, order }
+    }
 }
 
 /// Band of spatial frequencies (cycles per pixel) that carries the stripes: from
@@ -571,7 +580,7 @@ impl LogGradFilter {
         }
         let overlap = (period.ceil() as usize).clamp(8, 64);
         let context = (period.ceil() as usize).clamp(16, 128);
-        let grid = TileGrid { x: TileAxis::new(width, tile, overlap, context), y: TileAxis::new(height, tile, overlap, context) };
+        let grid = TileGrid::new(TileAxis::new(width, tile, overlap, context), TileAxis::new(height, tile, overlap, context));
         let band = (STRIPE_BAND.0.min(0.5 / period as f64), STRIPE_BAND.1);
         #[cfg(not(target_arch = "wasm32"))]
         let workers = rayon::current_num_threads().clamp(1, TILE_WORKERS);
@@ -652,7 +661,7 @@ impl LogGradFilter {
     /// spectra of every tile, then each tile's restoration blended into `out`; as many
     /// tiles at once as there are workspaces.
     fn run_tiled(&mut self, grid: &TileGrid, linear: &Image<Rgb>, windows: &[FamilyWindow], per_pixel: bool, out: &mut [Restored]) -> Result<()> {
-        let tiles: Vec<(usize, usize)> = (0..grid.y.count()).flat_map(|ty| (0..grid.x.count()).map(move |tx| (tx, ty))).collect();
+        let tiles = &grid.order;
         let origin = |&(tx, ty): &(usize, usize)| (grid.x.start[tx], grid.y.start[ty]);
         for region in self.regions.iter_mut() {
             region.direction_power.iter_mut().for_each(|p| *p = 0.0);
