@@ -22,7 +22,7 @@
 
 use crate::align::Aligner;
 use crate::pattern::PatternSpec;
-use crate::segment::{pack, reverse, Code, CodeMask, Edge, ScanAxis, Segmentation, LINE_CHUNKS, NO_CODE};
+use crate::segment::{for_line_chunks, pack, reverse, Code, CodeMask, Edge, ScanAxis, Segmentation, LINE_CHUNKS, NO_CODE};
 
 /// Largest distance between a boundary and its continuation on the next scan line,
 /// pixels. Scan lines are at most 45 degrees from across the stripes, so a boundary
@@ -188,20 +188,12 @@ impl Decoder {
     /// Identify the boundaries of every line of `seg` (sets `Edge::id`).
     pub fn run(&mut self, seg: &mut Segmentation) {
         // Each line is aligned on its own: natively, chunks of lines at once.
-        let chunk = seg.lines.len().div_ceil(LINE_CHUNKS).max(1);
         let (n_ranks, increasing, used) = (self.codes.len() as i32, self.increasing, self.used_codes);
-        let work = |(lines, a): (&mut [Vec<Edge>], &mut RunAligner)| {
+        for_line_chunks(&mut seg.lines, &mut self.aligners, |_, lines, a| {
             for edges in lines {
                 a.align_line(edges, used, increasing, n_ranks);
             }
-        };
-        #[cfg(not(target_arch = "wasm32"))]
-        {
-            use rayon::prelude::*;
-            seg.lines.par_chunks_mut(chunk).zip(self.aligners.par_iter_mut()).for_each(work);
-        }
-        #[cfg(target_arch = "wasm32")]
-        seg.lines.chunks_mut(chunk).zip(self.aligners.iter_mut()).for_each(work);
+        });
         self.check_across_lines(seg);
         for sweep in 0..PROPAGATION_SWEEPS {
             self.propagate(seg, sweep % 2 == 0);

@@ -159,7 +159,12 @@ pub fn rgb8_to_linear(src: &Image<[u8; 3]>, gamma: f32, dst: &mut Image<Rgb>) {
 /// [`rgb8_to_linear`] with a table from [`gamma_lut`] made once (the per-frame form).
 pub fn rgb8_to_linear_lut(src: &Image<[u8; 3]>, lut: &[f32; 256], dst: &mut Image<Rgb>) {
     debug_assert_eq!(src.size(), dst.size());
-    for (d, s) in dst.pixels_mut().iter_mut().zip(src.pixels()) {
+    rgb8_pixels_to_linear(src.pixels(), lut, dst.pixels_mut());
+}
+
+/// [`rgb8_to_linear_lut`] of a run of pixels (a part of a frame).
+pub fn rgb8_pixels_to_linear(src: &[[u8; 3]], lut: &[f32; 256], dst: &mut [Rgb]) {
+    for (d, s) in dst.iter_mut().zip(src) {
         *d = [lut[s[0] as usize], lut[s[1] as usize], lut[s[2] as usize]];
     }
 }

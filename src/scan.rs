@@ -14,7 +14,7 @@ use crate::error::{Error, Result};
 use crate::filter::{smooth_along_stripes, FamilyWindow, FilterMode, LogGradFilter, Restored, Tiling};
 use crate::merge;
 use crate::pattern::PatternSpec;
-use crate::raster::{detect_chroma_pairs, gamma_lut, interpolate_chroma_into, rgba8_into, ChromaPairs, Image, Rgb};
+use crate::raster::{detect_chroma_pairs, gamma_lut, interpolate_chroma_into, rgb8_pixels_to_linear, rgba8_into, ChromaPairs, Image, Rgb};
 use crate::segment::{pixel_flags_into, PixelFlags, ScanAxis, Segmentation};
 use crate::stages::{Stage, StageInputs};
 use crate::triangulate::Triangulator;
@@ -429,10 +429,10 @@ impl Scanner {
         let (lut, unmix) = (&self.lut, self.unmix);
         let chunk = (w * h).div_ceil(LINEARIZE_CHUNKS).max(1);
         let linearize = |((colour, frame), (linear, flags)): ((&[[u8; 3]], &[[u8; 3]]), (&mut [Rgb], &mut [PixelFlags]))| {
-            for (d, s) in linear.iter_mut().zip(colour) {
-                *d = [lut[s[0] as usize], lut[s[1] as usize], lut[s[2] as usize]];
-                if let Some(m) = unmix {
-                    *d = (m * glam::Vec3::from_array(*d)).max(glam::Vec3::ZERO).to_array();
+            rgb8_pixels_to_linear(colour, lut, linear);
+            if let Some(m) = unmix {
+                for p in linear.iter_mut() {
+                    *p = (m * glam::Vec3::from_array(*p)).max(glam::Vec3::ZERO).to_array();
                 }
             }
             pixel_flags_into(frame, linear, flags)

@@ -231,26 +231,33 @@ impl Segmentation {
         // Lines are independent: natively, chunks of them run at once, each chunk with
         // its own scratch (made at the first frame).
         self.scratch.resize_with(LINE_CHUNKS, LineScratch::default);
-        let chunk = nlines.div_ceil(LINE_CHUNKS).max(1);
         let input = LineInput { restored, linear, flags, axis, period, len };
-        let work = |(c, (lines, sc)): (usize, (&mut [Vec<Edge>], &mut LineScratch))| {
+        for_line_chunks(&mut self.lines, &mut self.scratch, |first, lines, sc| {
             for (k, edges) in lines.iter_mut().enumerate() {
-                segment_line(&input, c * chunk + k, edges, sc);
+                segment_line(&input, first + k, edges, sc);
             }
-        };
-        #[cfg(not(target_arch = "wasm32"))]
-        {
-            use rayon::prelude::*;
-            self.lines.par_chunks_mut(chunk).zip(self.scratch.par_iter_mut()).enumerate().for_each(work);
-        }
-        #[cfg(target_arch = "wasm32")]
-        self.lines.chunks_mut(chunk).zip(self.scratch.iter_mut()).enumerate().for_each(work);
+        });
     }
 }
 
 /// How many chunks of lines segmentation (and identification) split a family's lines
 /// into: more than the cores, so that chunks of busy and empty lines even out.
 pub const LINE_CHUNKS: usize = 8;
+
+/// Split `lines` into as many chunks as there are `scratch` entries (at most; each
+/// chunk gets one) and run `f(index of the chunk's first line, chunk, scratch)` on
+/// each: at once natively, in order in WebAssembly.
+pub fn for_line_chunks<T: Send, S: Send>(lines: &mut [T], scratch: &mut [S], f: impl Fn(usize, &mut [T], &mut S) + Sync + Send) {
+    let chunk = lines.len().div_ceil(scratch.len().max(1)).max(1);
+    let work = |(c, (lines, sc)): (usize, (&mut [T], &mut S))| f(c * chunk, lines, sc);
+    #[cfg(not(target_arch = "wasm32"))]
+    {
+        use rayon::prelude::*;
+        lines.par_chunks_mut(chunk).zip(scratch.par_iter_mut()).enumerate().for_each(work);
+    }
+    #[cfg(target_arch = "wasm32")]
+    lines.chunks_mut(chunk).zip(scratch.iter_mut()).enumerate().for_each(work);
+}
 
 /// What every line of one family's segmentation reads.
 struct LineInput<'a> {

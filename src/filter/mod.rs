@@ -259,9 +259,7 @@ pub fn pad_into(src: &[f32], w: usize, h: usize, dst: &mut [f32], pw: usize, ph:
 
 /// `ln(max(x, LOG_FLOOR))` of one channel of a linear image into a plane.
 pub fn log_plane_into(img: &Image<Rgb>, channel: usize, dst: &mut [f32]) {
-    for (d, p) in dst.iter_mut().zip(img.pixels()) {
-        *d = p[channel].max(LOG_FLOOR).ln();
-    }
+    log_region_into(img, (0, 0), img.size(), channel, dst);
 }
 
 /// [`log_plane_into`] of the `size` region at `origin` of `img` (which holds it).
@@ -393,7 +391,8 @@ pub struct LogGradFilter {
     /// The workspaces: one for the whole frame; for tiles, one per tile restored at
     /// once (two natively, one in WebAssembly).
     regions: Vec<Region>,
-    /// Spectral power of the frame's log image per direction (degrees, 0..180).
+    /// Spectral power of the frame's log image per direction (degrees, 0..180),
+    /// summed over the tiles.
     direction_power: Vec<f64>,
 }
 
@@ -571,8 +570,8 @@ impl LogGradFilter {
     /// off with distance; what lies further changes the restored log image only
     /// slowly, which decoding does not see) and blended into its neighbours over a
     /// period either side of each seam; the dominant directions are taken from the
-    /// spectra of all tiles, and the stripe band of that estimate reaches down to the
-    /// stripes' own frequency when they are wider than the default band's.
+    /// spectra of all tiles, and the stripe band of that estimate reaches down to half
+    /// the stripes' frequency when their period is over 12.5 pixels.
     pub fn tiled(width: usize, height: usize, period: f32, tile: usize) -> Result<Self> {
         check_size(width, height)?;
         if !(period.is_finite() && period > 0.0) {
@@ -639,11 +638,10 @@ impl LogGradFilter {
             None => {
                 let region = &mut self.regions[0];
                 region.steerable_planes(linear, (0, 0), true)?;
-                self.direction_power.copy_from_slice(&region.direction_power);
                 for (r, w) in out.iter_mut().zip(windows) {
-                    r.dominant = dominant_angle(&self.direction_power, w);
+                    r.dominant = dominant_angle(&region.direction_power, w);
                 }
-                self.regions[0].compose_families(windows, per_pixel, out);
+                region.compose_families(windows, per_pixel, out);
             }
             Some(grid) => {
                 let done = self.run_tiled(&grid, linear, windows, per_pixel, out);
@@ -659,7 +657,9 @@ impl LogGradFilter {
 
     /// [`LogGradFilter::run`] tile by tile: first the dominant directions from the
     /// spectra of every tile, then each tile's restoration blended into `out`; as many
-    /// tiles at once as there are workspaces.
+    /// tiles at once as there are workspaces. Each tile's forward transforms are made
+    /// twice (once for the directions, once for the restoration): keeping every tile's
+    /// spectra would cost as much memory as restoring the frame whole.
     fn run_tiled(&mut self, grid: &TileGrid, linear: &Image<Rgb>, windows: &[FamilyWindow], per_pixel: bool, out: &mut [Restored]) -> Result<()> {
         let tiles = &grid.order;
         let origin = |&(tx, ty): &(usize, usize)| (grid.x.start[tx], grid.y.start[ty]);
@@ -738,13 +738,10 @@ fn each_region<T: Sync>(regions: &mut [Region], batch: &[T], f: impl Fn(&mut Reg
     #[cfg(not(target_arch = "wasm32"))]
     {
         use rayon::prelude::*;
-        regions.par_iter_mut().zip(batch.par_iter()).map(|(r, t)| f(r, t)).collect::<Result<Vec<()>>>()?;
+        regions.par_iter_mut().zip(batch.par_iter()).try_for_each(|(r, t)| f(r, t))
     }
     #[cfg(target_arch = "wasm32")]
-    for (r, t) in regions.iter_mut().zip(batch) {
-        f(r, t)?;
-    }
-    Ok(())
+    regions.iter_mut().zip(batch).try_for_each(|(r, t)| f(r, t))
 }
 
 /// Multiply tile `(tx, ty)`'s restored families by its blend weights (done for each
