@@ -53,30 +53,45 @@ pub const BEAM_BITS: f32 = ACCEPT_BITS + 4.0;
 const NONE: f32 = f32::NEG_INFINITY;
 
 /// Reusable tables of the alignment of one run.
+///
+/// The labels carried on for an edge (its ranks within [`BEAM_BITS`] of its best prefix
+/// score) are few, a handful of the pattern's hundred or so, so they are kept as a list
+/// per edge in increasing rank, and the steps between consecutive edges go through
+/// per-rank scratch tables that are written for the labels of one edge and put back to
+/// empty after it.
 #[derive(Clone, Default)]
 pub struct Aligner {
     /// Per rank, the bit of its code in a [`crate::segment::CodeMask`] widened to 64
     /// bits (bit 63, never set, for boundaries without a code).
     rank_bit: Vec<u8>,
-    /// Per edge, the bits of evidence its compatible codes carry.
-    gain: Vec<f32>,
-    /// Best prefix scores with the edge labelled with the rank (`labelled`), and with
-    /// the rank the last label at or before the edge (`last`); `none`: nothing labelled
-    /// yet. Flat, edge after edge.
-    labelled: Vec<f32>,
-    last: Vec<f32>,
-    none: Vec<f32>,
-    /// Best suffix scores after the edge given the last label at or before it
-    /// (`after`), or none yet (`after_none`).
-    after: Vec<f32>,
-    after_none: Vec<f32>,
-    /// Bit sets over the ranks, `words` 64-bit words each: per code, the ranks that
-    /// show it (`code_ranks`, 27 sets); per edge, the ranks carried on (`active`);
-    /// and the candidates of the edge being computed (`cand`).
+    /// Per code, the ranks that show it: bit sets of `words` 64-bit words.
     words: usize,
     code_ranks: Vec<u64>,
-    active: Vec<u64>,
+    /// Per edge, the bits of evidence its compatible codes carry.
+    gain: Vec<f32>,
+    /// The labels carried on, edge after edge: edge `i`'s are `start[i]..start[i + 1]`,
+    /// each with its rank, the best prefix score with the edge labelled with it
+    /// (`labelled`), with it the last label at or before the edge (`last`), and the best
+    /// suffix score after the edge given that last label (`after`).
+    start: Vec<usize>,
+    rank: Vec<u32>,
+    labelled: Vec<f32>,
+    last: Vec<f32>,
+    after: Vec<f32>,
+    /// Per edge, the best prefix score with nothing labelled yet (`none`), and the best
+    /// suffix score after the edge with nothing labelled at or before it (`after_none`).
+    none: Vec<f32>,
+    after_none: Vec<f32>,
+    /// Per-rank scratch, [`NONE`] between uses (`MAX_MISSED + 1` spare ranks at the end):
+    /// forward, the best score of reaching a rank from the previous edge's labels
+    /// (`reach`) and of keeping the previous edge's label (`kept`), with the set of ranks
+    /// touched (`cand`); backward, the next edge's suffix scores (`stay`) and evidence
+    /// (`emitted`).
+    reach: Vec<f32>,
+    kept: Vec<f32>,
     cand: Vec<u64>,
+    stay: Vec<f32>,
+    emitted: Vec<f32>,
 }
 
 impl Aligner {
@@ -84,14 +99,26 @@ impl Aligner {
     /// the codes `seen` ([`crate::segment::NO_CODE`] where a boundary has none).
     pub fn new(seen: impl Iterator<Item = u8>) -> Self {
         let rank_bit: Vec<u8> = seen.map(|c| if c < 27 { c } else { 63 }).collect();
-        let words = rank_bit.len().div_ceil(64);
+        let nr = rank_bit.len();
+        let words = nr.div_ceil(64);
         let mut code_ranks = vec![0u64; 27 * words];
         for (r, &c) in rank_bit.iter().enumerate() {
             if c < 27 {
                 code_ranks[c as usize * words + r / 64] |= 1 << (r % 64);
             }
         }
-        Aligner { rank_bit, words, code_ranks, cand: vec![0; words], ..Default::default() }
+        let spare = nr + MAX_MISSED + 1;
+        Aligner {
+            rank_bit,
+            words,
+            code_ranks,
+            reach: vec![NONE; spare],
+            kept: vec![NONE; spare],
+            cand: vec![0; words],
+            stay: vec![NONE; spare],
+            emitted: vec![NONE; spare],
+            ..Default::default()
+        }
     }
 
     /// Label the edges whose compatible codes are `masks` (one run, in scan order):
@@ -107,59 +134,51 @@ impl Aligner {
         let p = used.count_ones().max(1) as f32;
         self.gain.clear();
         self.gain.extend(masks.iter().map(|&m| (p / (m & used).count_ones().max(1) as f32).log2()));
-        // Only the ranks of each edge within [`BEAM_BITS`] of its best prefix are
-        // carried on (the bit set `active` of the edge); values of other ranks are never
-        // read.
-        let words = self.words;
-        // Grown only: what is left from earlier runs is never read.
-        for v in [&mut self.labelled, &mut self.last, &mut self.after] {
-            if v.len() < n * nr {
-                v.resize(n * nr, NONE);
-            }
-        }
-        self.active.clear();
-        self.active.resize(n * words, 0);
-        self.none.clear();
-        self.none.resize(n, NONE);
-        self.after_none.clear();
-        self.after_none.resize(n, NONE);
-        let rank_bit = &self.rank_bit;
-        // What the evidence of an edge (compatible codes, information) says of a rank.
-        let emit = |(mask, gain): (u64, f32), r: usize| {
-            let bit = rank_bit[r];
-            if bit == 63 {
-                NONE
-            } else if mask >> bit & 1 != 0 {
-                gain
-            } else {
-                -MISREAD_BITS
-            }
-        };
-        let jump = |k: usize| (k - 1) as f32 * MISSED_BITS;
-        let has = |set: &[u64], r: usize| set[r / 64] >> (r % 64) & 1 != 0;
+        self.forward(masks);
+        self.backward(masks);
+        self.decide(out);
+    }
 
-        // Forward.
+    /// What the evidence of an edge (compatible codes, information) says of rank `r`.
+    #[inline]
+    fn emit(&self, (mask, gain): (u64, f32), r: usize) -> f32 {
+        let bit = self.rank_bit[r];
+        if bit == 63 {
+            NONE
+        } else if mask >> bit & 1 != 0 {
+            gain
+        } else {
+            -MISREAD_BITS
+        }
+    }
+
+    /// Prefix scores, edge after edge: the labels of an edge are the previous edge's
+    /// labels and up to [`MAX_MISSED`] + 1 ranks beyond them, and where a new alignment
+    /// may still start (nothing labelled is within the beam of the best), every rank
+    /// the edge fits; only those within [`BEAM_BITS`] of the edge's best are kept.
+    fn forward(&mut self, masks: &[u32]) {
+        let (n, nr) = (masks.len(), self.rank_bit.len());
+        self.rank.clear();
+        for v in [&mut self.labelled, &mut self.last, &mut self.none] {
+            v.clear();
+        }
+        self.start.clear();
+        let mut prev = 0..0;
         let mut prev_max = NONE;
         for i in 0..n {
             let edge = (masks[i] as u64, self.gain[i]);
             let prev_none = if i == 0 { 0.0 } else { self.none[i - 1] };
-            self.none[i] = prev_none - SPURIOUS_BITS;
-            let row = i * nr;
-            // The candidates: the previous edge's ranks and up to MAX_MISSED + 1 beyond
-            // them; where a new alignment may still start, every rank the edge fits.
-            let cand = &mut self.cand;
-            cand.iter_mut().for_each(|w| *w = 0);
-            if i > 0 {
-                let prev = &self.active[(i - 1) * words..i * words];
-                for w in 0..words {
-                    let mut c = prev[w];
-                    for k in 1..=MAX_MISSED + 1 {
-                        c |= prev[w] << k;
-                        if w > 0 {
-                            c |= prev[w - 1] >> (64 - k);
-                        }
+            self.none.push(prev_none - SPURIOUS_BITS);
+            for e in prev.clone() {
+                let (r, v) = (self.rank[e] as usize, self.last[e]);
+                self.kept[r] = v - SPURIOUS_BITS;
+                self.cand[r / 64] |= 1 << (r % 64);
+                for k in 1..=MAX_MISSED + 1 {
+                    let t = r + k;
+                    if t < nr {
+                        self.reach[t] = self.reach[t].max(v - jump(k));
+                        self.cand[t / 64] |= 1 << (t % 64);
                     }
-                    cand[w] = c;
                 }
             }
             let fresh = i == 0 || prev_none >= prev_max - BEAM_BITS;
@@ -168,113 +187,136 @@ impl Aligner {
                 while m != 0 {
                     let c = m.trailing_zeros() as usize;
                     m &= m - 1;
-                    for (w, bits) in cand.iter_mut().zip(&self.code_ranks[c * words..(c + 1) * words]) {
+                    for (w, bits) in self.cand.iter_mut().zip(&self.code_ranks[c * self.words..(c + 1) * self.words]) {
                         *w |= bits;
                     }
                 }
             }
-            if nr % 64 != 0 {
-                cand[words - 1] &= (1 << (nr % 64)) - 1;
-            }
-            let prev_active = if i > 0 { &self.active[(i - 1) * words..i * words] } else { &self.cand[..0] };
+            let begin = self.rank.len();
+            self.start.push(begin);
             let mut row_max = NONE;
-            for r in set_bits(&self.cand) {
-                let mut from = if fresh { prev_none } else { NONE };
-                let mut kept = NONE;
-                if i > 0 {
-                    let prev = &self.last[row - nr..row];
-                    for k in 1..=(MAX_MISSED + 1).min(r) {
-                        if has(prev_active, r - k) {
-                            from = from.max(prev[r - k] - jump(k));
-                        }
-                    }
-                    if has(prev_active, r) {
-                        kept = prev[r] - SPURIOUS_BITS;
-                    }
+            for w in 0..self.words {
+                let mut bits = std::mem::take(&mut self.cand[w]);
+                while bits != 0 {
+                    let r = w * 64 + bits.trailing_zeros() as usize;
+                    bits &= bits - 1;
+                    let from = if fresh { self.reach[r].max(prev_none) } else { self.reach[r] };
+                    let here = from + self.emit(edge, r);
+                    let v = here.max(self.kept[r]);
+                    self.reach[r] = NONE;
+                    self.kept[r] = NONE;
+                    self.rank.push(r as u32);
+                    self.labelled.push(here);
+                    self.last.push(v);
+                    row_max = row_max.max(v);
                 }
-                let here = from + emit(edge, r);
-                self.labelled[row + r] = here;
-                let v = here.max(kept);
-                self.last[row + r] = v;
-                row_max = row_max.max(v);
             }
-            // Keep the ranks within the beam.
+            // Keep the ranks within the beam (in place, in order).
             let floor = row_max - BEAM_BITS;
-            let active = &mut self.active[i * words..(i + 1) * words];
-            for r in set_bits(&self.cand).filter(|&r| self.last[row + r] >= floor) {
-                active[r / 64] |= 1 << (r % 64);
+            let mut kept = begin;
+            for e in begin..self.rank.len() {
+                if self.last[e] >= floor {
+                    self.rank[kept] = self.rank[e];
+                    self.labelled[kept] = self.labelled[e];
+                    self.last[kept] = self.last[e];
+                    kept += 1;
+                }
             }
+            self.rank.truncate(kept);
+            self.labelled.truncate(kept);
+            self.last.truncate(kept);
+            prev = begin..kept;
             prev_max = row_max;
         }
+        self.start.push(self.rank.len());
+    }
 
-        // Backward.
-        let last_row = (n - 1) * nr;
-        for r in set_bits(&self.active[(n - 1) * words..n * words]) {
-            self.after[last_row + r] = 0.0;
+    /// Suffix scores, from the last edge back: for each label of an edge, the best of
+    /// keeping it over a spurious next edge and of stepping to a label of the next edge.
+    fn backward(&mut self, masks: &[u32]) {
+        let (n, nr) = (masks.len(), self.rank_bit.len());
+        self.after.clear();
+        self.after.resize(self.rank.len(), NONE);
+        self.after_none.clear();
+        self.after_none.resize(n, NONE);
+        for e in self.start[n - 1]..self.start[n] {
+            self.after[e] = 0.0;
         }
         self.after_none[n - 1] = 0.0;
         for i in (0..n - 1).rev() {
             let edge = (masks[i + 1] as u64, self.gain[i + 1]);
-            let (row, next) = (i * nr, (i + 1) * nr);
-            let (here, there) = self.active[i * words..(i + 2) * words].split_at(words);
-            for r in set_bits(here) {
-                let mut v = if has(there, r) { self.after[next + r] - SPURIOUS_BITS } else { NONE };
+            let next = self.start[i + 1]..self.start[i + 2];
+            let mut best_start = NONE;
+            for e in next.clone() {
+                let t = self.rank[e] as usize;
+                let emitted = self.emit(edge, t);
+                self.stay[t] = self.after[e];
+                self.emitted[t] = emitted;
+                best_start = best_start.max(emitted + self.after[e]);
+            }
+            for e in self.start[i]..self.start[i + 1] {
+                let r = self.rank[e] as usize;
+                let mut v = self.stay[r] - SPURIOUS_BITS;
                 for k in 1..=MAX_MISSED + 1 {
                     let t = r + k;
-                    if t < nr && has(there, t) {
-                        v = v.max(emit(edge, t) - jump(k) + self.after[next + t]);
+                    if t < nr {
+                        v = v.max(self.emitted[t] - jump(k) + self.stay[t]);
                     }
                 }
-                self.after[row + r] = v;
+                self.after[e] = v;
             }
-            let mut best_start = NONE;
-            for t in set_bits(there) {
-                best_start = best_start.max(emit(edge, t) + self.after[next + t]);
+            for e in next {
+                let t = self.rank[e] as usize;
+                self.stay[t] = NONE;
+                self.emitted[t] = NONE;
             }
             self.after_none[i] = (self.after_none[i + 1] - SPURIOUS_BITS).max(best_start);
         }
+    }
 
-        // Decisions from the best whole-run score of each label of each edge.
-        for i in 0..n {
-            let row = i * nr;
-            let here = &self.active[i * words..(i + 1) * words];
+    /// Decisions from the best whole-run score of each label of each edge (and of its
+    /// being spurious).
+    fn decide(&self, out: &mut [i32]) {
+        for (i, o) in out.iter_mut().enumerate() {
+            let here = self.start[i]..self.start[i + 1];
             let mut spurious = if i == 0 { 0.0 } else { self.none[i - 1] } - SPURIOUS_BITS + self.after_none[i];
             if i > 0 {
-                let prev = &self.active[(i - 1) * words..i * words];
-                for r in set_bits(prev).filter(|&r| has(here, r)) {
-                    spurious = spurious.max(self.last[row - nr + r] - SPURIOUS_BITS + self.after[row + r]);
+                // Labels of the previous edge that this one keeps: both lists are in
+                // increasing rank.
+                let mut e = here.start;
+                for p in self.start[i - 1]..self.start[i] {
+                    let r = self.rank[p];
+                    while e < here.end && self.rank[e] < r {
+                        e += 1;
+                    }
+                    if e < here.end && self.rank[e] == r {
+                        spurious = spurious.max(self.last[p] - SPURIOUS_BITS + self.after[e]);
+                    }
                 }
             }
-            let (mut best, mut second, mut best_r) = (NONE, NONE, usize::MAX);
-            for r in set_bits(here) {
-                let s = self.labelled[row + r] + self.after[row + r];
+            let (mut best, mut second, mut best_r) = (NONE, NONE, u32::MAX);
+            for e in here {
+                let s = self.labelled[e] + self.after[e];
                 if s > best {
                     second = best;
                     best = s;
-                    best_r = r;
+                    best_r = self.rank[e];
                 } else if s > second {
                     second = s;
                 }
             }
-            if best_r != usize::MAX && best - second >= ACCEPT_BITS && best - spurious >= SPURIOUS_MARGIN_BITS {
-                out[i] = best_r as i32;
+            if best_r != u32::MAX && best - second >= ACCEPT_BITS && best - spurious >= SPURIOUS_MARGIN_BITS {
+                *o = best_r as i32;
             }
         }
     }
 }
 
-/// The indices of the set bits of a bit set, in increasing order.
-fn set_bits(set: &[u64]) -> impl Iterator<Item = usize> + '_ {
-    set.iter().enumerate().flat_map(|(w, &word)| {
-        let mut bits = word;
-        std::iter::from_fn(move || {
-            (bits != 0).then(|| {
-                let b = bits.trailing_zeros() as usize;
-                bits &= bits - 1;
-                w * 64 + b
-            })
-        })
-    })
+/// The cost of stepping `k` ranks from one labelled edge to the next (`k - 1` missed
+/// boundaries).
+#[inline]
+fn jump(k: usize) -> f32 {
+    (k - 1) as f32 * MISSED_BITS
 }
 
 #[cfg(test)]
