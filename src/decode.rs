@@ -75,6 +75,8 @@ pub struct Decoder {
     /// next line ([`NO_LINK`] where there is none).
     up: Vec<u32>,
     down: Vec<u32>,
+    /// The edges of one line whose identities its neighbours contradict.
+    dropped: Vec<u32>,
 }
 
 /// The alignment of a run to the pattern with its buffers.
@@ -151,6 +153,7 @@ impl Decoder {
             aligners: vec![RunAligner { aligner, masks: Vec::new(), ranks: Vec::new() }; LINE_CHUNKS],
             up: Vec::new(),
             down: Vec::new(),
+            dropped: Vec::new(),
         }
     }
 
@@ -201,29 +204,37 @@ impl Decoder {
     }
 
     /// Remove identities that the neighbouring lines contradict.
-    fn check_across_lines(&self, seg: &mut Segmentation) {
+    fn check_across_lines(&mut self, seg: &mut Segmentation) {
         let nlines = seg.lines.len();
         for line in 0..nlines {
-            for i in 0..seg.lines[line].len() {
-                let e = seg.lines[line][i];
+            // The lines either side, each walked once along this line's edges.
+            let mut others: [Option<Nearest>; 2 * VOTE_LINES] = Default::default();
+            for d in 1..=VOTE_LINES {
+                let tol = CONTINUATION_TOLERANCE * d as f32;
+                others[2 * (d - 1)] = line.checked_sub(d).map(|o| Nearest::new(&seg.lines[o], tol));
+                others[2 * (d - 1) + 1] = (line + d < nlines).then(|| Nearest::new(&seg.lines[line + d], tol));
+            }
+            self.dropped.clear();
+            for (i, e) in seg.lines[line].iter().enumerate() {
                 if e.id < 0 {
                     continue;
                 }
                 let (mut agree, mut disagree) = (0, 0);
-                for d in 1..=VOTE_LINES {
-                    for other in [line.checked_sub(d), (line + d < nlines).then_some(line + d)].into_iter().flatten() {
-                        if let Some(o) = nearest(&seg.lines[other], e.pos, CONTINUATION_TOLERANCE * d as f32) {
-                            if o.id == e.id {
-                                agree += 1;
-                            } else if o.id >= 0 {
-                                disagree += 1;
-                            }
-                        }
+                for o in others.iter_mut().flatten().filter_map(|n| n.at(e.pos)) {
+                    if o.id == e.id {
+                        agree += 1;
+                    } else if o.id >= 0 {
+                        disagree += 1;
                     }
                 }
                 if disagree > agree || agree < MIN_LINE_SUPPORT {
-                    seg.lines[line][i].id = -1;
+                    self.dropped.push(i as u32);
                 }
+            }
+            // After the line's votes (which read only the other lines), so that the
+            // lines below see this line's removals, as they always have.
+            for &i in &self.dropped {
+                seg.lines[line][i as usize].id = -1;
             }
         }
     }
@@ -244,8 +255,9 @@ impl Decoder {
                     let (lo, hi) = seg.lines.split_at_mut(from);
                     (&hi[0], &mut lo[line])
                 };
+                let mut near = Nearest::new(a, CONTINUATION_TOLERANCE);
                 for e in b.iter_mut().filter(|e| e.id < 0) {
-                    if let Some(o) = nearest(a, e.pos, CONTINUATION_TOLERANCE) {
+                    if let Some(o) = near.at(e.pos) {
                         if o.id >= 0 && self.confirms(e.mask, o.id) {
                             e.id = o.id;
                         }
@@ -352,19 +364,39 @@ fn axis_index(axis: ScanAxis, line: usize, s: usize, width: usize) -> usize {
     axis.index(line, s, width)
 }
 
-/// The edge of `edges` (sorted by position) nearest to `pos` within `tol`.
-fn nearest(edges: &[Edge], pos: f32, tol: f32) -> Option<Edge> {
-    let i = edges.partition_point(|e| e.pos < pos);
-    let mut best: Option<Edge> = None;
-    for j in [i.wrapping_sub(1), i] {
-        if let Some(e) = edges.get(j) {
-            let d = (e.pos - pos).abs();
-            if d <= tol && best.is_none_or(|b| d < (b.pos - pos).abs()) {
-                best = Some(*e);
+/// The edge of a line nearest to a position within a tolerance, for positions asked in
+/// increasing order: one walk along the line instead of a search per position.
+struct Nearest<'a> {
+    edges: &'a [Edge],
+    tol: f32,
+    /// The first edge at or after the last position asked.
+    next: usize,
+}
+
+impl<'a> Nearest<'a> {
+    /// For `edges` sorted by position.
+    fn new(edges: &'a [Edge], tol: f32) -> Self {
+        Nearest { edges, tol, next: 0 }
+    }
+
+    /// The edge nearest to `pos` within the tolerance (the earlier of two as near);
+    /// `pos` is at least the last position asked.
+    fn at(&mut self, pos: f32) -> Option<Edge> {
+        let edges = self.edges;
+        while self.next < edges.len() && edges[self.next].pos < pos {
+            self.next += 1;
+        }
+        let mut best: Option<Edge> = None;
+        for j in [self.next.wrapping_sub(1), self.next] {
+            if let Some(e) = edges.get(j) {
+                let d = (e.pos - pos).abs();
+                if d <= self.tol && best.is_none_or(|b| d < (b.pos - pos).abs()) {
+                    best = Some(*e);
+                }
             }
         }
+        best
     }
-    best
 }
 
 /// For every identified edge of line `from`, the flat index (line `to` starts at
