@@ -282,12 +282,21 @@ fn segment_line(input: &LineInput, line: usize, edges: &mut Vec<Edge>, sc: &mut 
     sc.strength.resize(len, 0.0);
     let mut run_id = 0u32;
     edges.clear();
-    for s in 0..len {
-        let i = axis.index(line, s, w);
-        sc.flags[s] = flags[i];
-        for ch in 0..3 {
-            sc.signal[ch][s] = restored.log[ch][i];
-            sc.level[ch][s] = linear[i][ch];
+    // The line's samples, copied into contiguous scratch: a row is a slice of each
+    // plane, a column every `w`-th sample.
+    let (first, stride) = match axis {
+        ScanAxis::Rows => (line * w, 1),
+        ScanAxis::Columns => (line, w),
+    };
+    let picks = (first..).step_by(stride).take(len);
+    for (f, i) in sc.flags.iter_mut().zip(picks.clone()) {
+        *f = flags[i];
+    }
+    for ch in 0..3 {
+        let log = &restored.log[ch];
+        for ((sig, lev), i) in sc.signal[ch].iter_mut().zip(sc.level[ch].iter_mut()).zip(picks.clone()) {
+            *sig = log[i];
+            *lev = linear[i][ch];
         }
     }
     let ok = |f: PixelFlags| f & UNUSABLE == 0;
@@ -391,10 +400,10 @@ struct Side {
     dark: bool,
 }
 
-/// The plateau strictly between positions `a` and `b` in channel `ch`, keeping a
-/// margin of a pixel from each end (the blurred transition); `None` when it holds an
-/// unusable pixel or nothing.
-fn plateau(sc: &LineScratch, ch: usize, a: f32, b: f32) -> Option<Side> {
+/// The plateau strictly between positions `a` and `b`, every channel, keeping a margin
+/// of a pixel from each end (the blurred transition); `None` when it holds an unusable
+/// pixel or nothing.
+fn plateau(sc: &LineScratch, a: f32, b: f32) -> Option<[Side; 3]> {
     let len = sc.flags.len();
     let lo = (a + 1.0).ceil().max(0.0) as usize;
     let hi = (b - 1.0).floor();
@@ -408,24 +417,25 @@ fn plateau(sc: &LineScratch, ch: usize, a: f32, b: f32) -> Option<Side> {
     } else {
         (lo, (hi as usize).min(len - 1))
     };
-    let mut side = Side::default();
-    for s in lo..=hi {
-        let f = sc.flags[s];
-        if f & UNUSABLE != 0 {
-            return None;
-        }
-        side.log += sc.signal[ch][s];
-        side.level += sc.level[ch][s];
-        side.n += 1;
-        side.clipped |= f & (1 << ch) != 0;
-        side.dark |= f & (1 << (3 + ch)) != 0;
-    }
-    if side.n == 0 {
+    let flags = &sc.flags[lo..=hi];
+    if flags.iter().any(|&f| f & UNUSABLE != 0) {
         return None;
     }
-    side.log /= side.n as f32;
-    side.level /= side.n as f32;
-    Some(side)
+    let n = flags.len() as u32;
+    let any = flags.iter().fold(0, |m, &f| m | f);
+    let mut sides = [Side::default(); 3];
+    for (ch, side) in sides.iter_mut().enumerate() {
+        let log: f32 = sc.signal[ch][lo..=hi].iter().sum();
+        let level: f32 = sc.level[ch][lo..=hi].iter().sum();
+        *side = Side {
+            log: log / n as f32,
+            level: level / n as f32,
+            n,
+            clipped: any & (1 << ch) != 0,
+            dark: any & (1 << (3 + ch)) != 0,
+        };
+    }
+    Some(sides)
 }
 
 /// The noise (standard deviation) of a side's mean log signal.
@@ -460,26 +470,28 @@ fn codes_of(values: [Values; 3]) -> CodeMask {
 /// no boundary of this family get an empty mask.
 fn classify(edges: &mut [Edge], sc: &LineScratch, period: f32) {
     let n = edges.len();
+    // The plateau right of an edge is the next edge's left one when both are bounded
+    // by the same two edges: measured once.
+    let mut carried: Option<(f32, f32, Option<[Side; 3]>)> = None;
     for i in 0..n {
         let here = edges[i];
         let has_prev = i > 0 && edges[i - 1].run == here.run && here.pos - edges[i - 1].pos <= HALF_DARK_STRIPE * period;
         let has_next = i + 1 < n && edges[i + 1].run == here.run && edges[i + 1].pos - here.pos <= HALF_DARK_STRIPE * period;
         let prev = if i > 0 && edges[i - 1].run == here.run { edges[i - 1].pos } else { here.pos - period };
         let next = if i + 1 < n && edges[i + 1].run == here.run { edges[i + 1].pos } else { here.pos + period };
-        let mut sides = [(Side::default(), Side::default()); 3];
-        let mut readable = true;
-        for (ch, side) in sides.iter_mut().enumerate() {
-            match (plateau(sc, ch, prev, here.pos), plateau(sc, ch, here.pos, next)) {
-                (Some(l), Some(r)) => *side = (l, r),
-                _ => readable = false,
-            }
-        }
-        if !readable {
+        let left = match carried {
+            Some((a, b, side)) if a == prev && b == here.pos => side,
+            _ => plateau(sc, prev, here.pos),
+        };
+        let right = plateau(sc, here.pos, next);
+        carried = Some((here.pos, next, right));
+        let (Some(left), Some(right)) = (left, right) else {
             // Not enough of a stripe on one side to read: an edge of unknown transition,
             // which still keeps its place in the order of boundaries.
             edges[i].mask = ANY_BOUNDARY;
             continue;
-        }
+        };
+        let sides: [(Side, Side); 3] = std::array::from_fn(|ch| (left[ch], right[ch]));
         // Per channel: the step, its noise, and whether it can be read at all.
         let mut delta = [0f32; 3];
         let mut sigma = [0f32; 3];
