@@ -208,9 +208,12 @@ fn fill_cloud(triangulator: &Triangulator, frame: &Image<[u8; 3]>, depth: &Image
     let w = depth.width();
     let frame = frame.pixels();
     cloud.clear();
-    for (i, &z) in depth.pixels().iter().enumerate() {
-        if !z.is_nan() {
-            cloud.push(triangulator.point(i, z), frame[i], [(i % w) as f32, (i / w) as f32], families(i));
+    for (v, row) in depth.pixels().chunks(w).enumerate() {
+        for (u, &z) in row.iter().enumerate() {
+            if !z.is_nan() {
+                let i = v * w + u;
+                cloud.push(triangulator.point_at(i, (u, v), z), frame[i], [u as f32, v as f32], families(i));
+            }
         }
     }
 }

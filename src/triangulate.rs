@@ -77,8 +77,14 @@ impl Triangulator {
     /// `q` of `family`; `None` when the ray misses the plane or the depth is outside
     /// [`DEPTH_RANGE_MM`].
     pub fn depth(&self, family: usize, i: usize, q: f64) -> Option<(f64, f64)> {
+        self.depth_at(family, i, (i % self.width, i / self.width), q)
+    }
+
+    /// [`Triangulator::depth`] of pixel index `i` at column and row `(u, v)`.
+    #[inline]
+    fn depth_at(&self, family: usize, i: usize, (u, v): (usize, usize), q: f64) -> Option<(f64, f64)> {
         let (abc, n0) = self.families[family];
-        let [x, y] = self.ray(i);
+        let [x, y] = self.ray_at(i, (u, v));
         let rr = self.rotation * DVec3::new(x as f64, y as f64, 1.0);
         let num = q * self.t.z - n0.dot(self.t);
         let den = n0.dot(rr) - q * rr.z;
@@ -89,27 +95,31 @@ impl Triangulator {
         // dz/dq of the quotient.
         let dzdq = (self.t.z * den + rr.z * num) / (den * den);
         if self.projector_distorted {
-            let (u, v) = ((i % self.width) as f64, (i / self.width) as f64);
-            z = self.calib.depth_on_stripe(u, v, abc.0, abc.1, abc.2, q)?;
+            z = self.calib.depth_on_stripe(u as f64, v as f64, abc.0, abc.1, abc.2, q)?;
         }
         (z.is_finite() && z > DEPTH_RANGE_MM.0 && z < DEPTH_RANGE_MM.1).then_some((z, dzdq))
     }
 
     /// The camera-frame point at depth `z` on pixel index `i`'s ray, mm.
     pub fn point(&self, i: usize, z: f32) -> [f32; 3] {
-        let [x, y] = self.ray(i);
+        self.point_at(i, (i % self.width, i / self.width), z)
+    }
+
+    /// [`Triangulator::point`] of pixel index `i` at column and row `(u, v)`.
+    #[inline]
+    pub fn point_at(&self, i: usize, (u, v): (usize, usize), z: f32) -> [f32; 3] {
+        let [x, y] = self.ray_at(i, (u, v));
         [x * z, y * z, z]
     }
 
-    /// The undistorted ray (x, y; z = 1) of pixel `i`.
+    /// The undistorted ray (x, y; z = 1) of pixel index `i` at `(u, v)`.
     #[inline]
-    fn ray(&self, i: usize) -> [f32; 2] {
+    fn ray_at(&self, i: usize, (u, v): (usize, usize)) -> [f32; 2] {
         if let Some(r) = self.rays.get(i) {
             return *r;
         }
         let c = &self.calib.camera;
-        let (u, v) = ((i % self.width) as f64, (i / self.width) as f64);
-        [((u - c.cx) / c.fx) as f32, ((v - c.cy) / c.fy) as f32]
+        [((u as f64 - c.cx) / c.fx) as f32, ((v as f64 - c.cy) / c.fy) as f32]
     }
 
     /// Depth of every pixel with a stripe coordinate (NaN elsewhere) into `depth`, and
@@ -117,18 +127,21 @@ impl Triangulator {
     /// family is not merged).
     pub fn family_depth_into(&self, family: usize, q: &[f32], depth: &mut [f32], weight: &mut [f32]) {
         let weigh = !weight.is_empty();
-        for (i, (&qi, d)) in q.iter().zip(depth.iter_mut()).enumerate() {
-            *d = f32::NAN;
-            if weigh {
-                weight[i] = 0.0;
-            }
-            if qi.is_nan() {
-                continue;
-            }
-            if let Some((z, dzdq)) = self.depth(family, i, qi as f64) {
-                *d = z as f32;
-                if weigh {
-                    weight[i] = (1.0 / (dzdq * dzdq).max(1e-9)) as f32;
+        depth.fill(f32::NAN);
+        weight.fill(0.0);
+        // Row by row, so that a pixel's column and row come without a division.
+        for (v, row) in q.chunks(self.width).enumerate() {
+            let first = v * self.width;
+            for (u, &qi) in row.iter().enumerate() {
+                if qi.is_nan() {
+                    continue;
+                }
+                let i = first + u;
+                if let Some((z, dzdq)) = self.depth_at(family, i, (u, v), qi as f64) {
+                    depth[i] = z as f32;
+                    if weigh {
+                        weight[i] = (1.0 / (dzdq * dzdq).max(1e-9)) as f32;
+                    }
                 }
             }
         }
