@@ -90,6 +90,10 @@ pub struct Aligner {
     reach: Vec<f32>,
     kept: Vec<f32>,
     cand: Vec<u64>,
+    /// One edge's candidates before the beam: rank, `labelled`, `last`.
+    edge_rank: Vec<u32>,
+    edge_labelled: Vec<f32>,
+    edge_last: Vec<f32>,
     stay: Vec<f32>,
     emitted: Vec<f32>,
 }
@@ -139,96 +143,93 @@ impl Aligner {
         self.decide(out);
     }
 
-    /// What the evidence of an edge (compatible codes, information) says of rank `r`.
-    #[inline]
-    fn emit(&self, (mask, gain): (u64, f32), r: usize) -> f32 {
-        let bit = self.rank_bit[r];
-        if bit == 63 {
-            NONE
-        } else if mask >> bit & 1 != 0 {
-            gain
-        } else {
-            -MISREAD_BITS
-        }
-    }
-
     /// Prefix scores, edge after edge: the labels of an edge are the previous edge's
     /// labels and up to [`MAX_MISSED`] + 1 ranks beyond them, and where a new alignment
     /// may still start (nothing labelled is within the beam of the best), every rank
     /// the edge fits; only those within [`BEAM_BITS`] of the edge's best are kept.
     fn forward(&mut self, masks: &[u32]) {
-        let (n, nr) = (masks.len(), self.rank_bit.len());
-        self.rank.clear();
-        for v in [&mut self.labelled, &mut self.last, &mut self.none] {
-            v.clear();
-        }
-        self.start.clear();
+        let nr = self.rank_bit.len();
+        // The fields apart, so that the loops keep their slices in registers.
+        let Aligner { rank_bit, words, code_ranks, gain, start, rank, labelled, last, none, reach, kept, cand, edge_rank, edge_labelled, edge_last, .. } = self;
+        let words = *words;
+        rank.clear();
+        labelled.clear();
+        last.clear();
+        none.clear();
+        start.clear();
+        // One edge's candidates, before the beam: at most every rank.
+        edge_rank.resize(nr, 0);
+        edge_labelled.resize(nr, NONE);
+        edge_last.resize(nr, NONE);
+        let (reach, kept) = (&mut reach[..], &mut kept[..]);
         let mut prev = 0..0;
         let mut prev_max = NONE;
-        for i in 0..n {
-            let edge = (masks[i] as u64, self.gain[i]);
-            let prev_none = if i == 0 { 0.0 } else { self.none[i - 1] };
-            self.none.push(prev_none - SPURIOUS_BITS);
-            for e in prev.clone() {
-                let (r, v) = (self.rank[e] as usize, self.last[e]);
-                self.kept[r] = v - SPURIOUS_BITS;
-                self.cand[r / 64] |= 1 << (r % 64);
+        for (i, &mask) in masks.iter().enumerate() {
+            let edge = (mask as u64, gain[i]);
+            let prev_none = if i == 0 { 0.0 } else { none[i - 1] };
+            none.push(prev_none - SPURIOUS_BITS);
+            for (&r, &v) in rank[prev.clone()].iter().zip(&last[prev.clone()]) {
+                let r = r as usize;
+                kept[r] = v - SPURIOUS_BITS;
+                cand[r / 64] |= 1 << (r % 64);
+                // The spare entries past the last rank take the steps beyond it, which
+                // are never candidates.
                 for k in 1..=MAX_MISSED + 1 {
                     let t = r + k;
+                    reach[t] = reach[t].max(v - jump(k));
                     if t < nr {
-                        self.reach[t] = self.reach[t].max(v - jump(k));
-                        self.cand[t / 64] |= 1 << (t % 64);
+                        cand[t / 64] |= 1 << (t % 64);
                     }
                 }
             }
             let fresh = i == 0 || prev_none >= prev_max - BEAM_BITS;
             if fresh {
-                let mut m = masks[i] & ((1 << 27) - 1);
+                let mut m = mask & ((1 << 27) - 1);
                 while m != 0 {
                     let c = m.trailing_zeros() as usize;
                     m &= m - 1;
-                    for (w, bits) in self.cand.iter_mut().zip(&self.code_ranks[c * self.words..(c + 1) * self.words]) {
+                    for (w, bits) in cand.iter_mut().zip(&code_ranks[c * words..(c + 1) * words]) {
                         *w |= bits;
                     }
                 }
             }
-            let begin = self.rank.len();
-            self.start.push(begin);
+            let mut count = 0;
             let mut row_max = NONE;
-            for w in 0..self.words {
-                let mut bits = std::mem::take(&mut self.cand[w]);
+            for (w, word) in cand.iter_mut().enumerate() {
+                let mut bits = std::mem::take(word);
                 while bits != 0 {
                     let r = w * 64 + bits.trailing_zeros() as usize;
                     bits &= bits - 1;
-                    let from = if fresh { self.reach[r].max(prev_none) } else { self.reach[r] };
-                    let here = from + self.emit(edge, r);
-                    let v = here.max(self.kept[r]);
-                    self.reach[r] = NONE;
-                    self.kept[r] = NONE;
-                    self.rank.push(r as u32);
-                    self.labelled.push(here);
-                    self.last.push(v);
+                    let from = if fresh { reach[r].max(prev_none) } else { reach[r] };
+                    let here = from + emit(rank_bit, edge, r);
+                    let v = here.max(kept[r]);
+                    reach[r] = NONE;
+                    kept[r] = NONE;
+                    edge_rank[count] = r as u32;
+                    edge_labelled[count] = here;
+                    edge_last[count] = v;
+                    count += 1;
                     row_max = row_max.max(v);
                 }
             }
-            // Keep the ranks within the beam (in place, in order).
+            for t in nr..reach.len() {
+                reach[t] = NONE;
+            }
+            // Keep the ranks within the beam, in order.
             let floor = row_max - BEAM_BITS;
-            let mut kept = begin;
-            for e in begin..self.rank.len() {
-                if self.last[e] >= floor {
-                    self.rank[kept] = self.rank[e];
-                    self.labelled[kept] = self.labelled[e];
-                    self.last[kept] = self.last[e];
-                    kept += 1;
+            let begin = rank.len();
+            start.push(begin);
+            for c in 0..count {
+                if edge_last[c] >= floor {
+                    rank.push(edge_rank[c]);
+                    labelled.push(edge_labelled[c]);
+                    last.push(edge_last[c]);
                 }
             }
-            self.rank.truncate(kept);
-            self.labelled.truncate(kept);
-            self.last.truncate(kept);
-            prev = begin..kept;
+            prev = begin..rank.len();
             prev_max = row_max;
         }
-        self.start.push(self.rank.len());
+        start.push(rank.len());
     }
 
     /// Suffix scores, from the last edge back: for each label of an edge, the best of
@@ -249,7 +250,7 @@ impl Aligner {
             let mut best_start = NONE;
             for e in next.clone() {
                 let t = self.rank[e] as usize;
-                let emitted = self.emit(edge, t);
+                let emitted = emit(&self.rank_bit, edge, t);
                 self.stay[t] = self.after[e];
                 self.emitted[t] = emitted;
                 best_start = best_start.max(emitted + self.after[e]);
@@ -309,6 +310,20 @@ impl Aligner {
                 *o = best_r as i32;
             }
         }
+    }
+}
+
+/// What the evidence of an edge (compatible codes, information) says of rank `r`,
+/// whose code has bit `rank_bit[r]`.
+#[inline]
+fn emit(rank_bit: &[u8], (mask, gain): (u64, f32), r: usize) -> f32 {
+    let bit = rank_bit[r];
+    if bit == 63 {
+        NONE
+    } else if mask >> bit & 1 != 0 {
+        gain
+    } else {
+        -MISREAD_BITS
     }
 }
 
