@@ -206,6 +206,8 @@ pub struct LineScratch {
     signal: [Vec<f32>; 3],
     level: [Vec<f32>; 3],
     flags: Vec<PixelFlags>,
+    /// The flags of each sample and its two neighbours, together.
+    near: Vec<PixelFlags>,
     strength: Vec<f32>,
 }
 
@@ -279,6 +281,7 @@ fn segment_line(input: &LineInput, line: usize, edges: &mut Vec<Edge>, sc: &mut 
         sc.level[ch].resize(len, 0.0);
     }
     sc.flags.resize(len, 0);
+    sc.near.resize(len, 0);
     sc.strength.resize(len, 0.0);
     let mut run_id = 0u32;
     edges.clear();
@@ -303,26 +306,33 @@ fn segment_line(input: &LineInput, line: usize, edges: &mut Vec<Edge>, sc: &mut 
     // Edge strength: squared central differences, summed over the channels
     // that are not dark at the three pixels involved (a dark channel's log is
     // noise); only where the three pixels are usable.
-    sc.strength[0] = 0.0;
-    sc.strength[len - 1] = 0.0;
-    for s in 1..len - 1 {
-        let (fa, fb, fc) = (sc.flags[s - 1], sc.flags[s], sc.flags[s + 1]);
-        sc.strength[s] = if ok(fa) && ok(fb) && ok(fc) {
-            let dark = fa | fb | fc;
-            // Each channel weighted by how far its brighter side is above the
-            // noise: a channel near the floor on both sides (a black stripe's
-            // channel) has a log that is mostly noise.
-            (0..3)
-                .filter(|&ch| dark & (1 << (3 + ch)) == 0)
-                .map(|ch| {
-                    let m = sc.level[ch][s - 1].max(sc.level[ch][s + 1]);
-                    let weight = m * m / (m * m + STRENGTH_NOISE_LEVEL * STRENGTH_NOISE_LEVEL);
-                    weight * (0.5 * (sc.signal[ch][s + 1] - sc.signal[ch][s - 1])).powi(2)
-                })
-                .sum()
-        } else {
-            0.0
-        };
+    // Each channel weighted by how far its brighter side is above the noise: a
+    // channel near the floor on both sides (a black stripe's channel) has a log that
+    // is mostly noise. One pass per channel over the whole line, without branches.
+    sc.strength.iter_mut().for_each(|v| *v = 0.0);
+    if len >= 3 {
+        let inner = 1..len - 1;
+        for (o, (a, (b, c))) in sc.near[inner.clone()].iter_mut().zip(sc.flags.iter().zip(sc.flags[1..].iter().zip(&sc.flags[2..]))) {
+            *o = a | b | c;
+        }
+        for ch in 0..3 {
+            let dark_bit = 1 << (3 + ch);
+            let (sig, lev) = (&sc.signal[ch], &sc.level[ch]);
+            let before = sig.iter().zip(lev);
+            let after = sig[2..].iter().zip(&lev[2..]);
+            for ((out, &near), ((&s0, &l0), (&s2, &l2))) in sc.strength[inner.clone()].iter_mut().zip(&sc.near[inner.clone()]).zip(before.zip(after)) {
+                let m = l0.max(l2);
+                let weight = m * m / (m * m + STRENGTH_NOISE_LEVEL * STRENGTH_NOISE_LEVEL);
+                let d = 0.5 * (s2 - s0);
+                *out += if near & dark_bit == 0 { weight * (d * d) } else { 0.0 };
+            }
+        }
+        // Only where the three pixels are usable.
+        for (out, &near) in sc.strength[inner.clone()].iter_mut().zip(&sc.near[inner]) {
+            if near & UNUSABLE != 0 {
+                *out = 0.0;
+            }
+        }
     }
     // Local maxima (strict on the right so plateaus give one edge), then
     // parabolic sub-pixel refinement.
@@ -504,7 +514,9 @@ fn classify(edges: &mut [Edge], sc: &LineScratch, period: f32) {
         for ch in 0..3 {
             let (l, r) = sides[ch];
             delta[ch] = r.log - l.log;
-            sigma[ch] = log_noise(&l).hypot(log_noise(&r));
+            // Neither is near overflow: the plain root, not `hypot`'s careful one.
+            let (nl, nr) = (log_noise(&l), log_noise(&r));
+            sigma[ch] = (nl * nl + nr * nr).sqrt();
             let lit = |s: &Side| !s.dark && s.level >= LIT_BESIDE_DARK * DARK_LEVEL;
             if has_prev && l.dark && lit(&r) {
                 half_dark[ch] = UP;
@@ -525,15 +537,17 @@ fn classify(edges: &mut [Edge], sc: &LineScratch, period: f32) {
         // The camera's own signal must change too: the restoration rings beside strong
         // steps (a few tenths in the log, in wide stripes), and a ring between two
         // plateaus of one stripe is no boundary however the restored signal reads.
-        let seen_step = (0..3).fold(0f32, |m, ch| {
+        // Compared as a ratio (at least 1), which needs no logarithm.
+        let seen_ratio = (0..3).fold(1f32, |m, ch| {
             let (l, r) = sides[ch];
             let noise = NOISE_LINEAR * (1.0 / l.n.max(1) as f32 + 1.0 / r.n.max(1) as f32).sqrt();
             if (r.level - l.level).abs() <= NOISE_SIGMAS * noise {
                 return m;
             }
-            m.max((r.level.max(DARK_LEVEL) / l.level.max(DARK_LEVEL)).ln().abs())
+            let (a, b) = (r.level.max(DARK_LEVEL), l.level.max(DARK_LEVEL));
+            m.max(a.max(b) / a.min(b))
         });
-        if seen_step < MIN_SEEN_STEP {
+        if seen_ratio < MIN_SEEN_STEP.exp() {
             continue;
         }
         if largest < MIN_STEP && half_dark.iter().any(|&v| v != 0) {
