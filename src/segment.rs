@@ -355,35 +355,47 @@ fn segment_line(input: &LineInput, line: usize, edges: &mut Vec<Edge>, sc: &mut 
             // Sub-pixel position from the linear-light gradient: camera blur
             // acts on linear light, so a blurred step's linear gradient peaks
             // at the step while its log gradient leans to the darker side.
-            // The linear-light gradient at s-2..=s+2 (0 at the line's ends),
-            // from the exponentials of s-3..=s+3, each taken once.
+            // The linear-light gradient at s-2..=s+2 (0 at the line's ends), from
+            // the exponentials of s-3..=s+3, each taken once, and the outer two
+            // only when the peak moves their way.
             let mut ex = [[0f32; 7]; 3];
-            for (k, t) in (s as isize - 3..=s as isize + 3).enumerate() {
+            let take_exp = |ex: &mut [[f32; 7]; 3], k: usize| {
+                let t = s as isize - 3 + k as isize;
                 if t >= 0 && (t as usize) < len {
                     for ch in 0..3 {
                         ex[ch][k] = sc.signal[ch][t as usize].exp();
                     }
                 }
-            }
+            };
+            (1..=5).for_each(|k| take_exp(&mut ex, k));
             let mut lin = [0f32; 5];
-            for (k, g) in lin.iter_mut().enumerate() {
+            let gradient = |ex: &[[f32; 7]; 3], k: usize| {
                 let t = s + k;
                 // t - 2 is the position; it needs both neighbours on the line.
                 if t >= 3 && t - 2 + 1 < len {
-                    *g = (0..3).map(|ch| (0.5 * (ex[ch][k + 2] - ex[ch][k])).powi(2)).sum();
+                    (0..3).map(|ch| (0.5 * (ex[ch][k + 2] - ex[ch][k])).powi(2)).sum()
+                } else {
+                    0.0
                 }
+            };
+            for k in 1..=3 {
+                lin[k] = gradient(&ex, k);
             }
-            let lin = |t: usize| lin[t + 2 - s];
             // The log strength leaves out channels that are dark on a side,
             // which can move its peak a pixel towards the bright side (black
             // stripes): the linear gradient's own peak, a pixel either way, is
             // where the parabola goes.
             let mut p = s;
-            if p >= 2 && lin(p - 1) > lin(p) && lin(p - 1) >= lin(p + 1) {
+            if p >= 2 && lin[1] > lin[2] && lin[1] >= lin[3] {
                 p -= 1;
-            } else if p + 2 < len && lin(p + 1) > lin(p) {
+                take_exp(&mut ex, 0);
+                lin[0] = gradient(&ex, 0);
+            } else if p + 2 < len && lin[3] > lin[2] {
                 p += 1;
+                take_exp(&mut ex, 6);
+                lin[4] = gradient(&ex, 4);
             }
+            let lin = |t: usize| lin[t + 2 - s];
             let (a, b, c) = (lin(p - 1), lin(p), lin(p + 1));
             let den = a - 2.0 * b + c;
             let offset = if den < 0.0 { (0.5 * (a - c) / den).clamp(-0.5, 0.5) } else { 0.0 };
