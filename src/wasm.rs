@@ -22,6 +22,15 @@ use crate::raster::{to_rgba8, Image};
 use crate::scan::{ScanConfig, Scanner};
 use crate::sim;
 use js_sys::{Float32Array, Object, Reflect, Uint8Array};
+
+#[wasm_bindgen]
+extern "C" {
+    /// The stage clock: `performance.now()`, milliseconds with a fraction, on the
+    /// global scope of a page, a worker and Node alike (`Date.now()` counts whole
+    /// milliseconds, too coarse for stages of a few).
+    #[wasm_bindgen(js_namespace = performance, js_name = now)]
+    fn performance_now() -> f64;
+}
 use wasm_bindgen::prelude::*;
 
 /// Runs once when the module is instantiated: panics are printed to the console with
@@ -270,7 +279,7 @@ impl WasmScanner {
             None => IDENTITY_CROSSTALK,
             Some(m) => crosstalk_from_values(&m).map_err(js_error)?,
         };
-        let config = ScanConfig { filter: parse_filter(filter)?, crosstalk, clock: Some(js_sys::Date::now), ..ScanConfig::default() };
+        let config = ScanConfig { filter: parse_filter(filter)?, crosstalk, clock: Some(performance_now), ..ScanConfig::default() };
         Ok(WasmScanner { inner: Scanner::new(spec, calib, config).map_err(js_error)? })
     }
 
