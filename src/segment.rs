@@ -362,8 +362,11 @@ fn segment_line(input: &LineInput, line: usize, edges: &mut Vec<Edge>, sc: &mut 
             let take_exp = |ex: &mut [[f32; 7]; 3], k: usize| {
                 let t = s as isize - 3 + k as isize;
                 if t >= 0 && (t as usize) < len {
+                    let t = t as usize;
+                    // The three channels in one four-lane call.
+                    let e = wide::f32x4::new([sc.signal[0][t], sc.signal[1][t], sc.signal[2][t], 0.0]).exp().to_array();
                     for ch in 0..3 {
-                        ex[ch][k] = sc.signal[ch][t as usize].exp();
+                        ex[ch][k] = e[ch];
                     }
                 }
             };
