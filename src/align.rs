@@ -50,6 +50,8 @@ pub const SPURIOUS_MARGIN_BITS: f32 = 3.0;
 /// coverage 74.5 %, outliers 0.79 % against 0.80 %) with a quarter more work.
 pub const BEAM_BITS: f32 = ACCEPT_BITS + 4.0;
 
+use crate::max_f32;
+
 const NONE: f32 = f32::NEG_INFINITY;
 
 /// Reusable tables of the alignment of one run.
@@ -176,7 +178,7 @@ impl Aligner {
                 // are never candidates.
                 for k in 1..=MAX_MISSED + 1 {
                     let t = r + k;
-                    reach[t] = reach[t].max(v - jump(k));
+                    reach[t] = max_f32(reach[t], v - jump(k));
                     if t < nr {
                         cand[t / 64] |= 1 << (t % 64);
                     }
@@ -200,16 +202,16 @@ impl Aligner {
                 while bits != 0 {
                     let r = w * 64 + bits.trailing_zeros() as usize;
                     bits &= bits - 1;
-                    let from = if fresh { reach[r].max(prev_none) } else { reach[r] };
+                    let from = if fresh { max_f32(reach[r], prev_none) } else { reach[r] };
                     let here = from + emit(rank_bit, edge, r);
-                    let v = here.max(kept[r]);
+                    let v = max_f32(here, kept[r]);
                     reach[r] = NONE;
                     kept[r] = NONE;
                     edge_rank[count] = r as u32;
                     edge_labelled[count] = here;
                     edge_last[count] = v;
                     count += 1;
-                    row_max = row_max.max(v);
+                    row_max = max_f32(row_max, v);
                 }
             }
             for t in nr..reach.len() {
@@ -253,7 +255,7 @@ impl Aligner {
                 let emitted = emit(&self.rank_bit, edge, t);
                 self.stay[t] = self.after[e];
                 self.emitted[t] = emitted;
-                best_start = best_start.max(emitted + self.after[e]);
+                best_start = max_f32(best_start, emitted + self.after[e]);
             }
             for e in self.start[i]..self.start[i + 1] {
                 let r = self.rank[e] as usize;
@@ -261,7 +263,7 @@ impl Aligner {
                 for k in 1..=MAX_MISSED + 1 {
                     let t = r + k;
                     if t < nr {
-                        v = v.max(self.emitted[t] - jump(k) + self.stay[t]);
+                        v = max_f32(v, self.emitted[t] - jump(k) + self.stay[t]);
                     }
                 }
                 self.after[e] = v;
@@ -271,7 +273,7 @@ impl Aligner {
                 self.stay[t] = NONE;
                 self.emitted[t] = NONE;
             }
-            self.after_none[i] = (self.after_none[i + 1] - SPURIOUS_BITS).max(best_start);
+            self.after_none[i] = max_f32(self.after_none[i + 1] - SPURIOUS_BITS, best_start);
         }
     }
 
@@ -291,7 +293,7 @@ impl Aligner {
                         e += 1;
                     }
                     if e < here.end && self.rank[e] == r {
-                        spurious = spurious.max(self.last[p] - SPURIOUS_BITS + self.after[e]);
+                        spurious = max_f32(spurious, self.last[p] - SPURIOUS_BITS + self.after[e]);
                     }
                 }
             }

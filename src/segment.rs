@@ -30,6 +30,7 @@
 //! light) and pixels clipped in every channel break a scan line.
 
 use crate::filter::Restored;
+use crate::max_f32;
 use crate::raster::{Rgb, SATURATED};
 
 /// A code in {-1, 0, +1}³ packed as a base-3 number, `(r+1)·9 + (g+1)·3 + (b+1)`.
@@ -321,7 +322,7 @@ fn segment_line(input: &LineInput, line: usize, edges: &mut Vec<Edge>, sc: &mut 
             let before = sig.iter().zip(lev);
             let after = sig[2..].iter().zip(&lev[2..]);
             for ((out, &near), ((&s0, &l0), (&s2, &l2))) in sc.strength[inner.clone()].iter_mut().zip(&sc.near[inner.clone()]).zip(before.zip(after)) {
-                let m = l0.max(l2);
+                let m = max_f32(l0, l2);
                 let weight = m * m / (m * m + STRENGTH_NOISE_LEVEL * STRENGTH_NOISE_LEVEL);
                 let d = 0.5 * (s2 - s0);
                 *out += if near & dark_bit == 0 { weight * (d * d) } else { 0.0 };
@@ -465,7 +466,7 @@ fn plateau(sc: &LineScratch, a: f32, b: f32) -> Option<[Side; 3]> {
 
 /// The noise (standard deviation) of a side's mean log signal.
 fn log_noise(side: &Side) -> f32 {
-    NOISE_LINEAR / (side.level.max(DARK_LEVEL) * (side.n as f32).sqrt())
+    NOISE_LINEAR / (max_f32(side.level, DARK_LEVEL) * (side.n as f32).sqrt())
 }
 
 /// Which of down (bit 0), unchanged (bit 1) and up (bit 2) a channel allows.
@@ -544,7 +545,7 @@ fn classify(edges: &mut [Edge], sc: &LineScratch, period: f32) {
         // preferring channels not clipped on either side (a clipped step is a bound).
         let significant = |ch: usize| !wildcard[ch] && delta[ch].abs() > NOISE_SIGMAS * sigma[ch];
         let clean = |ch: usize| significant(ch) && !sides[ch].0.clipped && !sides[ch].1.clipped;
-        let largest_of = |pick: &dyn Fn(usize) -> bool| (0..3).filter(|&c| pick(c)).fold(0f32, |m, c| m.max(delta[c].abs()));
+        let largest_of = |pick: &dyn Fn(usize) -> bool| (0..3).filter(|&c| pick(c)).fold(0f32, |m, c| max_f32(m, delta[c].abs()));
         let mut largest = largest_of(&clean);
         if largest == 0.0 {
             largest = largest_of(&significant);
@@ -559,8 +560,8 @@ fn classify(edges: &mut [Edge], sc: &LineScratch, period: f32) {
             if (r.level - l.level).abs() <= NOISE_SIGMAS * noise {
                 return m;
             }
-            let (a, b) = (r.level.max(DARK_LEVEL), l.level.max(DARK_LEVEL));
-            m.max(a.max(b) / a.min(b))
+            let (a, b) = (max_f32(r.level, DARK_LEVEL), max_f32(l.level, DARK_LEVEL));
+            max_f32(m, max_f32(a, b) / if a < b { a } else { b })
         });
         if seen_ratio < MIN_SEEN_STEP.exp() {
             continue;
