@@ -431,7 +431,7 @@ struct Side {
 /// pixel or nothing.
 fn plateau(sc: &LineScratch, a: f32, b: f32) -> Option<[Side; 3]> {
     let len = sc.flags.len();
-    let lo = (a + 1.0).ceil().max(0.0) as usize;
+    let lo = max_f32((a + 1.0).ceil(), 0.0) as usize;
     let hi = (b - 1.0).floor();
     let (lo, hi) = if hi < lo as f32 {
         // A narrow stripe: the sample halfway.
