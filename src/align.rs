@@ -71,6 +71,10 @@ pub struct Aligner {
     code_ranks: Vec<u64>,
     /// Per edge, the bits of evidence its compatible codes carry.
     gain: Vec<f32>,
+    /// The bits of evidence of 0..=27 compatible codes, for the set of codes
+    /// `gain_used`.
+    gain_of: [f32; 28],
+    gain_used: Option<u32>,
     /// The labels carried on, edge after edge: edge `i`'s are `start[i]..start[i + 1]`,
     /// each with its rank, the best prefix score with the edge labelled with it
     /// (`labelled`), with it the last label at or before the edge (`last`), and the best
@@ -137,9 +141,15 @@ impl Aligner {
         if n == 0 || nr == 0 {
             return;
         }
-        let p = used.count_ones().max(1) as f32;
+        // The information of `m` compatible codes depends on `m` alone: a table of the
+        // 28 counts, made again only when the pattern's codes change.
+        if self.gain_used != Some(used) {
+            let p = used.count_ones().max(1) as f32;
+            self.gain_of = std::array::from_fn(|m| (p / m.max(1) as f32).log2());
+            self.gain_used = Some(used);
+        }
         self.gain.clear();
-        self.gain.extend(masks.iter().map(|&m| (p / (m & used).count_ones().max(1) as f32).log2()));
+        self.gain.extend(masks.iter().map(|&m| self.gain_of[(m & used).count_ones() as usize]));
         self.forward(masks);
         self.backward(masks);
         self.decide(out);
