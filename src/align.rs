@@ -50,7 +50,7 @@ pub const SPURIOUS_MARGIN_BITS: f32 = 3.0;
 /// coverage 74.5 %, outliers 0.79 % against 0.80 %) with a quarter more work.
 pub const BEAM_BITS: f32 = ACCEPT_BITS + 4.0;
 
-use crate::max_f32;
+use crate::num::max_f32;
 
 const NONE: f32 = f32::NEG_INFINITY;
 

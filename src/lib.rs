@@ -13,12 +13,12 @@
 //! | stage | module | uses |
 //! |---|---|---|
 //! | coded stripe patterns and their spec files | [`pattern`] | error, raster |
-//! | log-gradient illumination restoration (eq. 5-8) | [`filter`] | error, raster |
-//! | stripe boundaries and their colour transitions | [`segment`] | filter, raster |
-//! | order-preserving alignment of a line's boundaries to the pattern | [`align`] | |
+//! | log-gradient illumination restoration (eq. 5-8) | [`filter`] | error, num, raster |
+//! | stripe boundaries and their colour transitions | [`segment`] | filter, num, raster |
+//! | order-preserving alignment of a line's boundaries to the pattern | [`align`] | num |
 //! | stripe identification from neighbour sequences | [`decode`] | align, pattern, segment |
 //! | depth from a calibrated projector-camera pair | [`triangulate`] | calib, pattern |
-//! | merging the range images of the families | [`merge`] | |
+//! | merging the range images of the families | [`merge`] | num |
 //! | point clouds as flat arrays, and PLY | [`cloud`] | error |
 //! | pictures of every stage, for people | [`stages`] | filter, raster, segment |
 //! | the long-lived scanner that runs the stages per frame | [`scan`] | calib, cloud, decode, error, filter, merge, pattern, raster, segment, stages, triangulate |
@@ -28,6 +28,7 @@
 //! | PNG/PFM reading and writing | [`io`] | error, raster |
 //! | images, gamma, pixel formats | [`raster`] | error |
 //! | the error type | [`error`] | |
+//! | number helpers of the per-frame loops | [`num`] | |
 //! | the browser boundary (wasm32 only) | `wasm` | calib, cloud, error, filter, io, pattern, raster, scan, sim |
 //!
 //! Everything except `wasm` is plain Rust with no knowledge of the browser; the
@@ -50,23 +51,10 @@ pub mod eval;
 pub mod error;
 pub mod io;
 pub mod raster;
+pub mod num;
 
 #[cfg(target_arch = "wasm32")]
 pub mod wasm;
-
-/// The larger of two numbers that are never NaN (scores, light levels, edge
-/// strengths). `f32::max` handles NaN, which in WebAssembly is a call to a library
-/// routine (`fmaxf`) instead of one instruction: in the line alignment it was a tenth
-/// of a frame. This is a comparison and a select on every target. Like `f32::max`, a
-/// NaN `a` gives `b`.
-#[inline]
-pub(crate) fn max_f32(a: f32, b: f32) -> f32 {
-    if a >= b {
-        a
-    } else {
-        b
-    }
-}
 
 pub use calib::Calibration;
 pub use error::Error;

@@ -14,13 +14,13 @@
 /// sixth of a stripe on the demo rig, far above the measurement noise and far below
 /// the error of a wrong stripe identity (a whole stripe).
 pub fn agree_tolerance(z: f32) -> f32 {
-    crate::max_f32(0.004 * z, 2.0)
+    crate::num::max_f32(0.004 * z, 2.0)
 }
 
 /// Neighbouring pixels (mm) belong to one surface within max(4 mm, 1 % of the depth),
 /// which allows surfaces slanted up to about 75 degrees at the demo rig's resolution.
 pub fn neighbour_tolerance(z: f32) -> f32 {
-    crate::max_f32(0.01 * z, 4.0)
+    crate::num::max_f32(0.01 * z, 4.0)
 }
 
 /// Of the 8 neighbours, at least this many must be on the same surface.

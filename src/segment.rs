@@ -30,7 +30,7 @@
 //! light) and pixels clipped in every channel break a scan line.
 
 use crate::filter::Restored;
-use crate::max_f32;
+use crate::num::max_f32;
 use crate::raster::{Rgb, SATURATED};
 
 /// A code in {-1, 0, +1}³ packed as a base-3 number, `(r+1)·9 + (g+1)·3 + (b+1)`.

@@ -269,7 +269,7 @@ fn log_region_into(img: &Image<Rgb>, origin: (usize, usize), size: (usize, usize
     for y in 0..h {
         let src = &img.pixels()[(y0 + y) * iw + x0..(y0 + y) * iw + x0 + w];
         for (d, p) in dst[y * w..(y + 1) * w].iter_mut().zip(src) {
-            *d = crate::max_f32(p[channel], LOG_FLOOR).ln();
+            *d = crate::num::max_f32(p[channel], LOG_FLOOR).ln();
         }
     }
 }
