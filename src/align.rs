@@ -69,12 +69,12 @@ pub struct Aligner {
     /// Per code, the ranks that show it: bit sets of `words` 64-bit words.
     words: usize,
     code_ranks: Vec<u64>,
+    /// The codes the pattern shows (a [`crate::segment::CodeMask`]), and the bits of
+    /// evidence of an edge compatible with 0..=27 of them.
+    used: u32,
+    gain_of: [f32; 28],
     /// Per edge, the bits of evidence its compatible codes carry.
     gain: Vec<f32>,
-    /// The bits of evidence of 0..=27 compatible codes, for the set of codes
-    /// `gain_used`.
-    gain_of: [f32; 28],
-    gain_used: Option<u32>,
     /// The labels carried on, edge after edge: edge `i`'s are `start[i]..start[i + 1]`,
     /// each with its rank, the best prefix score with the edge labelled with it
     /// (`labelled`), with it the last label at or before the edge (`last`), and the best
@@ -96,12 +96,12 @@ pub struct Aligner {
     reach: Vec<f32>,
     kept: Vec<f32>,
     cand: Vec<u64>,
+    stay: Vec<f32>,
+    emitted: Vec<f32>,
     /// One edge's candidates before the beam: rank, `labelled`, `last`.
     edge_rank: Vec<u32>,
     edge_labelled: Vec<f32>,
     edge_last: Vec<f32>,
-    stay: Vec<f32>,
-    emitted: Vec<f32>,
 }
 
 impl Aligner {
@@ -117,11 +117,15 @@ impl Aligner {
                 code_ranks[c as usize * words + r / 64] |= 1 << (r % 64);
             }
         }
+        let used = rank_bit.iter().filter(|&&c| c < 27).fold(0u32, |m, &c| m | 1 << c);
+        let p = used.count_ones().max(1) as f32;
         let spare = nr + MAX_MISSED + 1;
         Aligner {
             rank_bit,
             words,
             code_ranks,
+            used,
+            gain_of: std::array::from_fn(|m| (p / m.max(1) as f32).log2()),
             reach: vec![NONE; spare],
             kept: vec![NONE; spare],
             cand: vec![0; words],
@@ -133,23 +137,16 @@ impl Aligner {
 
     /// Label the edges whose compatible codes are `masks` (one run, in scan order):
     /// `out[i]` is the rank of edge `i`, or -1 where no rank is clear enough.
-    /// `used` is the set of codes the pattern uses.
-    pub fn align(&mut self, masks: &[u32], used: u32, out: &mut [i32]) {
+    pub fn align(&mut self, masks: &[u32], out: &mut [i32]) {
         let n = masks.len();
         let nr = self.rank_bit.len();
         out.iter_mut().for_each(|o| *o = -1);
         if n == 0 || nr == 0 {
             return;
         }
-        // The information of `m` compatible codes depends on `m` alone: a table of the
-        // 28 counts, made again only when the pattern's codes change.
-        if self.gain_used != Some(used) {
-            let p = used.count_ones().max(1) as f32;
-            self.gain_of = std::array::from_fn(|m| (p / m.max(1) as f32).log2());
-            self.gain_used = Some(used);
-        }
+        // The information of `m` compatible codes depends on `m` alone (a table).
         self.gain.clear();
-        self.gain.extend(masks.iter().map(|&m| self.gain_of[(m & used).count_ones() as usize]));
+        self.gain.extend(masks.iter().map(|&m| self.gain_of[(m & self.used).count_ones() as usize]));
         self.forward(masks);
         self.backward(masks);
         self.decide(out);
@@ -368,7 +365,6 @@ mod tests {
             })
             .collect();
         let mut al = Aligner::new(codes.iter().copied());
-        let used = codes.iter().fold(0u32, |m, &c| m | 1 << c);
         let truth: Vec<i32> = (5..25).collect();
         let mut masks: Vec<u32> = truth.iter().map(|&r| 1u32 << codes[r as usize]).collect();
         let mut expect: Vec<i32> = truth.clone();
@@ -382,7 +378,7 @@ mod tests {
         masks.insert(15, 1 << 0);
         expect.insert(15, -1);
         let mut out = vec![0; masks.len()];
-        al.align(&masks, used, &mut out);
+        al.align(&masks, &mut out);
         for (i, (&o, &e)) in out.iter().zip(&expect).enumerate() {
             assert!(o == e || (o == -1 && (i < 2 || i + 2 >= expect.len() || i.abs_diff(4) <= 1 || i.abs_diff(10) <= 1 || i.abs_diff(15) <= 1)), "edge {i}: {o} expected {e}; all {out:?}");
         }

@@ -89,9 +89,9 @@ struct RunAligner {
 
 impl RunAligner {
     /// Identify every run of `edges` by its alignment to the pattern (see
-    /// [`crate::align`]); `used` is the set of codes the pattern shows, `n_ranks` its
+    /// [`crate::align`]); `n_ranks` is the pattern's
     /// number of boundaries, `increasing` whether identities grow along the line.
-    fn align_line(&mut self, edges: &mut [Edge], used: CodeMask, increasing: bool, n_ranks: i32) {
+    fn align_line(&mut self, edges: &mut [Edge], increasing: bool, n_ranks: i32) {
         let mut start = 0;
         while start < edges.len() {
             let run = edges[start].run;
@@ -99,7 +99,7 @@ impl RunAligner {
             self.masks.clear();
             self.masks.extend(edges[start..end].iter().map(|e| e.mask));
             self.ranks.resize(end - start, -1);
-            self.aligner.align(&self.masks, used, &mut self.ranks);
+            self.aligner.align(&self.masks, &mut self.ranks);
             for (e, &r) in edges[start..end].iter_mut().zip(&self.ranks) {
                 e.id = if r < 0 {
                     -1
@@ -191,10 +191,10 @@ impl Decoder {
     /// Identify the boundaries of every line of `seg` (sets `Edge::id`).
     pub fn run(&mut self, seg: &mut Segmentation) {
         // Each line is aligned on its own: natively, chunks of lines at once.
-        let (n_ranks, increasing, used) = (self.codes.len() as i32, self.increasing, self.used_codes);
+        let (n_ranks, increasing) = (self.codes.len() as i32, self.increasing);
         for_line_chunks(&mut seg.lines, &mut self.aligners, |_, lines, a| {
             for edges in lines {
-                a.align_line(edges, used, increasing, n_ranks);
+                a.align_line(edges, increasing, n_ranks);
             }
         });
         self.check_across_lines(seg);
