@@ -214,3 +214,30 @@ fn tiled_restoration_matches_the_whole_frame() {
         assert!(same > 0.95, "family {k}: same angle at {same:.3}");
     }
 }
+
+both_targets! {
+/// The box filter (the per-pixel angle criterion's smoothing) equals the mean over the
+/// window with clamped borders, on planes narrower, shorter and larger than the window.
+fn box_filter_matches_a_clamped_window_mean() {
+    use stripelight::filter::box_filter_into;
+    for (w, h, r) in [(1, 1, 2), (5, 3, 4), (17, 11, 3), (40, 29, 6)] {
+        let src: Vec<f32> = (0..w * h).map(|i| ((i * 7919 % 101) as f32 - 50.0) * 0.37).collect();
+        let (mut dst, mut tmp) = (vec![f32::NAN; w * h], vec![0.0; w * h]);
+        box_filter_into(&src, &mut dst, &mut tmp, w, h, r);
+        let clamp = |v: isize, n: usize| v.clamp(0, n as isize - 1) as usize;
+        for y in 0..h {
+            for x in 0..w {
+                let mut sum = 0.0f64;
+                for dy in -(r as isize)..=r as isize {
+                    for dx in -(r as isize)..=r as isize {
+                        sum += src[clamp(y as isize + dy, h) * w + clamp(x as isize + dx, w)] as f64;
+                    }
+                }
+                let want = sum / ((2 * r + 1) * (2 * r + 1)) as f64;
+                let got = dst[y * w + x] as f64;
+                assert!((got - want).abs() < 1e-3, "{w}x{h} r={r} at ({x}, {y}): {got} vs {want}");
+            }
+        }
+    }
+}
+}

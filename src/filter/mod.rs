@@ -369,12 +369,29 @@ pub fn box_filter_into(src: &[f32], dst: &mut [f32], tmp: &mut [f32], w: usize, 
             sum += at(x as isize + r as isize + 1) - at(x as isize - r as isize);
         }
     }
-    for x in 0..w {
-        let at = |i: isize| tmp[i.clamp(0, h as isize - 1) as usize * w + x];
-        let mut sum: f32 = (-(r as isize)..=r as isize).map(at).sum();
-        for y in 0..h {
-            dst[y * w + x] = sum * norm;
-            sum += at(y as isize + r as isize + 1) - at(y as isize - r as isize);
+    // Down the columns, a whole row at a time: the running sums of every column sit in
+    // the output's next row until it is written.
+    let row = |y: isize| y.clamp(0, h as isize - 1) as usize * w;
+    if h == 0 {
+        return;
+    }
+    let (first, rest) = dst.split_at_mut(w);
+    first.iter_mut().for_each(|s| *s = 0.0);
+    for i in -(r as isize)..=r as isize {
+        first.iter_mut().zip(&tmp[row(i)..row(i) + w]).for_each(|(s, t)| *s += t);
+    }
+    let mut sums = first;
+    for (y, next) in (0..h).zip(rest.chunks_exact_mut(w).map(Some).chain(std::iter::once(None))) {
+        let (add, sub) = (row(y as isize + r as isize + 1), row(y as isize - r as isize));
+        match next {
+            Some(next) => {
+                for (((n, s), a), b) in next.iter_mut().zip(sums.iter_mut()).zip(&tmp[add..add + w]).zip(&tmp[sub..sub + w]) {
+                    *n = *s + (a - b);
+                    *s *= norm;
+                }
+                sums = next;
+            }
+            None => sums.iter_mut().for_each(|s| *s *= norm),
         }
     }
 }
@@ -421,9 +438,8 @@ struct Region {
     m: [Vec<f32>; 6],
     gw: usize,
     gh: usize,
-    /// Per family and grid sample, the index of the chosen candidate angle (see
-    /// `compose`); one buffer per family, made at the first frame.
-    choice: Vec<Vec<u8>>,
+    /// Per family, the workspace of `compose`, made at the first frame.
+    compose: Vec<ComposeScratch>,
     tmp: Vec<f32>,
     tmp2: Vec<f32>,
     /// Per spectrum bin: its 1-degree direction bin, or `u16::MAX` outside the band
@@ -846,7 +862,7 @@ impl Region {
             m: [grid(), grid(), grid(), grid(), grid(), grid()],
             gw,
             gh,
-            choice: Vec::new(),
+            compose: Vec::new(),
             tmp: plane(),
             tmp2: plane(),
             direction_bin: direction_bins(pw, ph, band),
@@ -866,18 +882,18 @@ impl Region {
                 self.m[k].copy_from_slice(&self.tmp2[..g]);
             }
         }
-        // Made once: the families' choice buffers (the count only changes with the spec).
-        let g = self.gw * self.gh;
-        self.choice.resize_with(windows.len(), || vec![0; g]);
+        // Made once: the families' workspaces (the count only changes with the spec).
+        let (g, w) = (self.gw * self.gh, self.width);
+        self.compose.resize_with(windows.len(), || ComposeScratch { choice: vec![0; g], alpha: vec![0.0; w], beta: vec![0.0; w] });
         let planes = Planes { p: &self.p, q: &self.q, c: &self.c, m: &self.m, width: self.width, height: self.height, gw: self.gw };
-        let compose = |((r, w), choice): ((&mut Restored, &FamilyWindow), &mut Vec<u8>)| planes.compose(choice, r, w, per_pixel);
+        let compose = |((r, w), scratch): ((&mut Restored, &FamilyWindow), &mut ComposeScratch)| planes.compose(scratch, r, w, per_pixel);
         #[cfg(not(target_arch = "wasm32"))]
         {
             use rayon::prelude::*;
-            out.par_iter_mut().zip(windows.par_iter()).zip(self.choice.par_iter_mut()).for_each(compose);
+            out.par_iter_mut().zip(windows.par_iter()).zip(self.compose.par_iter_mut()).for_each(compose);
         }
         #[cfg(target_arch = "wasm32")]
-        out.iter_mut().zip(windows.iter()).zip(self.choice.iter_mut()).for_each(compose);
+        out.iter_mut().zip(windows.iter()).zip(self.compose.iter_mut()).for_each(compose);
     }
 
     /// The log image of one channel of the region of `linear` at `origin` (the planes'
@@ -956,29 +972,40 @@ impl Region {
     /// [`ANGLE_STEP`]-th pixel (central differences at full resolution).
     fn criterion_planes(&mut self) {
         let (w, h, gw) = (self.width, self.height, self.gw);
-        for m in self.m.iter_mut() {
-            m.iter_mut().for_each(|x| *x = 0.0);
-        }
-        for ch in 0..3 {
-            let (p, q, c) = (&self.p[ch], &self.q[ch], &self.c[ch]);
-            for (gy, y) in (0..h).step_by(ANGLE_STEP).enumerate() {
-                let (ym, yp) = (y.saturating_sub(1), (y + 1).min(h - 1));
-                for (gx, x) in (0..w).step_by(ANGLE_STEP).enumerate() {
-                    let (xm, xp) = (x.saturating_sub(1), (x + 1).min(w - 1));
-                    let grad = |f: &[f32]| [f[y * w + xp] - f[y * w + xm], f[yp * w + x] - f[ym * w + x]];
-                    let (gp, gq, gc) = (grad(p), grad(q), grad(c));
-                    let dot = |a: [f32; 2], b: [f32; 2]| a[0] * b[0] + a[1] * b[1];
-                    let i = gy * gw + gx;
-                    self.m[0][i] += dot(gp, gp);
-                    self.m[1][i] += dot(gp, gq);
-                    self.m[2][i] += dot(gp, gc);
-                    self.m[3][i] += dot(gq, gq);
-                    self.m[4][i] += dot(gc, gc);
-                    self.m[5][i] += dot(gq, gc);
+        let (p, q, c) = (&self.p, &self.q, &self.c);
+        for (gy, y) in (0..h).step_by(ANGLE_STEP).enumerate() {
+            let (ym, yp) = (y.saturating_sub(1), (y + 1).min(h - 1));
+            for (gx, x) in (0..w).step_by(ANGLE_STEP).enumerate() {
+                let (xm, xp) = (x.saturating_sub(1), (x + 1).min(w - 1));
+                let grad = |f: &[f32]| [f[y * w + xp] - f[y * w + xm], f[yp * w + x] - f[ym * w + x]];
+                let dot = |a: [f32; 2], b: [f32; 2]| a[0] * b[0] + a[1] * b[1];
+                // The three channels' sums, in channel order.
+                let mut sum = [0.0f32; 6];
+                for ch in 0..3 {
+                    let (gp, gq, gc) = (grad(&p[ch]), grad(&q[ch]), grad(&c[ch]));
+                    sum[0] += dot(gp, gp);
+                    sum[1] += dot(gp, gq);
+                    sum[2] += dot(gp, gc);
+                    sum[3] += dot(gq, gq);
+                    sum[4] += dot(gc, gc);
+                    sum[5] += dot(gq, gc);
+                }
+                let i = gy * gw + gx;
+                for (m, s) in self.m.iter_mut().zip(sum) {
+                    m[i] = s;
                 }
             }
         }
     }
+}
+
+/// One family's workspace for [`Planes::compose`].
+struct ComposeScratch {
+    /// Per grid sample, the index of the chosen candidate angle.
+    choice: Vec<u8>,
+    /// One row's `cos 2φ` and `sin 2φ` of the chosen angles.
+    alpha: Vec<f32>,
+    beta: Vec<f32>,
 }
 
 /// The planes [`LogGradFilter::run`] composes the families from, borrowed so that the
@@ -998,7 +1025,7 @@ impl Planes<'_> {
     /// window around the dominant angle) with the largest criterion at its grid
     /// sample, where it beats the dominant angle's criterion by
     /// [`DOMINANT_PREFERENCE`]; or the dominant angle everywhere.
-    fn compose(&self, choice: &mut [u8], r: &mut Restored, win: &FamilyWindow, per_pixel: bool) {
+    fn compose(&self, scratch: &mut ComposeScratch, r: &mut Restored, win: &FamilyWindow, per_pixel: bool) {
         // The candidate angles with cos 2φ and sin 2φ, in a fixed array (no allocation);
         // without a per-pixel choice the one candidate is the dominant angle.
         let mut buffer = [(0f32, 0f32, 0f32); PAPER_ANGLES_DEG.len() + 1];
@@ -1022,7 +1049,7 @@ impl Planes<'_> {
         }
         let candidates = &buffer[..count];
         if count > 1 {
-            for (g, choice) in choice.iter_mut().enumerate() {
+            for (g, choice) in scratch.choice.iter_mut().enumerate() {
                 let m = [self.m[0][g], self.m[1][g], self.m[2][g], self.m[3][g], self.m[4][g], self.m[5][g]];
                 let criterion = |al: f32, be: f32| m[0] + 2.0 * al * m[1] + 2.0 * be * m[2] + al * al * m[3] + be * be * m[4] + 2.0 * al * be * m[5];
                 let (_, al, be) = candidates[count - 1];
@@ -1037,16 +1064,28 @@ impl Planes<'_> {
                 *choice = index;
             }
         }
+        // Row by row: the chosen angles' coefficients into a row, then each channel in
+        // one pass over the row (which vectorizes).
         let (w, gw) = (self.width, self.gw);
+        let (alpha, beta) = (&mut scratch.alpha[..w], &mut scratch.beta[..w]);
+        if count == 1 {
+            let (a, al, be) = candidates[0];
+            alpha.iter_mut().for_each(|x| *x = al);
+            beta.iter_mut().for_each(|x| *x = be);
+            r.angle.iter_mut().for_each(|x| *x = a);
+        }
         for y in 0..self.height {
-            let grid_row = &choice[(y / ANGLE_STEP) * gw..(y / ANGLE_STEP + 1) * gw];
-            for x in 0..w {
-                // One candidate: the dominant angle, whatever the buffer holds.
-                let (a, al, be) = if count > 1 { candidates[grid_row[x / ANGLE_STEP] as usize] } else { candidates[0] };
-                let i = y * w + x;
-                r.angle[i] = a;
-                for ch in 0..3 {
-                    r.log[ch][i] = self.p[ch][i] + al * self.q[ch][i] + be * self.c[ch][i];
+            let row = y * w..(y + 1) * w;
+            if count > 1 {
+                let grid_row = &scratch.choice[(y / ANGLE_STEP) * gw..(y / ANGLE_STEP + 1) * gw];
+                for (x, ((angle, al), be)) in r.angle[row.clone()].iter_mut().zip(alpha.iter_mut()).zip(beta.iter_mut()).enumerate() {
+                    (*angle, *al, *be) = candidates[grid_row[x / ANGLE_STEP] as usize];
+                }
+            }
+            for ch in 0..3 {
+                let (p, q, c) = (&self.p[ch][row.clone()], &self.q[ch][row.clone()], &self.c[ch][row.clone()]);
+                for ((((o, p), q), c), (al, be)) in r.log[ch][row.clone()].iter_mut().zip(p).zip(q).zip(c).zip(alpha.iter().zip(beta.iter())) {
+                    *o = p + al * q + be * c;
                 }
             }
         }
