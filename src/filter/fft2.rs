@@ -24,9 +24,16 @@ pub struct Fft2 {
     col_forward: Arc<dyn Fft<f32>>,
     col_inverse: Arc<dyn Fft<f32>>,
     row_real: Vec<f32>,
-    row_complex: Vec<Complex32>,
+    /// [`BLOCK_ROWS`] rows' spectra, row after row, between the row transforms and the
+    /// column-major spectrum.
+    block: Vec<Complex32>,
     scratch: Vec<Complex32>,
 }
+
+/// Rows transformed before their spectra are moved into the column-major layout: each
+/// column then receives this many consecutive values at once (a whole cache line at
+/// 8), instead of one value per row at a stride of the whole column.
+const BLOCK_ROWS: usize = 8;
 
 impl Fft2 {
     /// Plan transforms for `width` x `height` images (both at least 1).
@@ -54,7 +61,7 @@ impl Fft2 {
             col_forward,
             col_inverse,
             row_real: vec![0.0; width],
-            row_complex: vec![Complex32::new(0.0, 0.0); width / 2 + 1],
+            block: vec![Complex32::new(0.0, 0.0); BLOCK_ROWS * (width / 2 + 1)],
             scratch: vec![Complex32::new(0.0, 0.0); scratch_len],
         }
     }
@@ -74,13 +81,18 @@ impl Fft2 {
         let (w, h) = (self.width, self.height);
         debug_assert_eq!(image.len(), w * h);
         debug_assert_eq!(spectrum.len(), self.spectrum_len());
-        for y in 0..h {
-            self.row_real.copy_from_slice(&image[y * w..(y + 1) * w]);
-            self.row_forward
-                .process_with_scratch(&mut self.row_real, &mut self.row_complex, &mut self.scratch)
-                .map_err(fft_error)?;
-            for (k, &c) in self.row_complex.iter().enumerate() {
-                spectrum[k * h + y] = c;
+        let nk = w / 2 + 1;
+        for y0 in (0..h).step_by(BLOCK_ROWS) {
+            let rows = BLOCK_ROWS.min(h - y0);
+            for (r, out) in self.block.chunks_exact_mut(nk).take(rows).enumerate() {
+                let y = y0 + r;
+                self.row_real.copy_from_slice(&image[y * w..(y + 1) * w]);
+                self.row_forward.process_with_scratch(&mut self.row_real, out, &mut self.scratch).map_err(fft_error)?;
+            }
+            for (k, column) in spectrum.chunks_exact_mut(h).enumerate() {
+                for (r, c) in column[y0..y0 + rows].iter_mut().enumerate() {
+                    *c = self.block[r * nk + k];
+                }
             }
         }
         // All columns at once: RustFFT transforms each `height`-long chunk.
@@ -94,19 +106,24 @@ impl Fft2 {
         let (w, h) = (self.width, self.height);
         debug_assert_eq!(image.len(), w * h);
         self.col_inverse.process_with_scratch(spectrum, &mut self.scratch);
-        for y in 0..h {
-            for (k, c) in self.row_complex.iter_mut().enumerate() {
-                *c = spectrum[k * h + y];
+        let nk = w / 2 + 1;
+        for y0 in (0..h).step_by(BLOCK_ROWS) {
+            let rows = BLOCK_ROWS.min(h - y0);
+            for (k, column) in spectrum.chunks_exact(h).enumerate() {
+                for (r, &c) in column[y0..y0 + rows].iter().enumerate() {
+                    self.block[r * nk + k] = c;
+                }
             }
-            // A real row's DC (and, for even widths, Nyquist) bin is real; rounding
-            // leaves tiny imaginary parts there, which realfft would report.
-            self.row_complex[0].im = 0.0;
-            if w % 2 == 0 {
-                self.row_complex[w / 2].im = 0.0;
+            for (r, row) in self.block.chunks_exact_mut(nk).take(rows).enumerate() {
+                // A real row's DC (and, for even widths, Nyquist) bin is real; rounding
+                // leaves tiny imaginary parts there, which realfft would report.
+                row[0].im = 0.0;
+                if w % 2 == 0 {
+                    row[w / 2].im = 0.0;
+                }
+                let y = y0 + r;
+                self.row_inverse.process_with_scratch(row, &mut image[y * w..(y + 1) * w], &mut self.scratch).map_err(fft_error)?;
             }
-            self.row_inverse
-                .process_with_scratch(&mut self.row_complex, &mut image[y * w..(y + 1) * w], &mut self.scratch)
-                .map_err(fft_error)?;
         }
         Ok(())
     }
