@@ -268,7 +268,16 @@ fn log_region_into(img: &Image<Rgb>, origin: (usize, usize), size: (usize, usize
     let ((x0, y0), (w, h)) = (origin, size);
     for y in 0..h {
         let src = &img.pixels()[(y0 + y) * iw + x0..(y0 + y) * iw + x0 + w];
-        for (d, p) in dst[y * w..(y + 1) * w].iter_mut().zip(src) {
+        // Four at a time: `wide`'s logarithm, at most one ulp from `f32::ln` over the
+        // floor to 4 (checked every 37th float).
+        let row = &mut dst[y * w..(y + 1) * w];
+        let mut outs = row.chunks_exact_mut(4);
+        let mut ins = src.chunks_exact(4);
+        for (d, p) in (&mut outs).zip(&mut ins) {
+            let v = wide::f32x4::new([0, 1, 2, 3].map(|k| crate::num::max_f32(p[k][channel], LOG_FLOOR)));
+            d.copy_from_slice(&v.ln().to_array());
+        }
+        for (d, p) in outs.into_remainder().iter_mut().zip(ins.remainder()) {
             *d = crate::num::max_f32(p[channel], LOG_FLOOR).ln();
         }
     }
