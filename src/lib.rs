@@ -17,7 +17,7 @@
 //! | stripe boundaries and their colour transitions | [`segment`] | filter, num, raster |
 //! | order-preserving alignment of a line's boundaries to the pattern | [`align`] | num |
 //! | stripe identification from neighbour sequences | [`decode`] | align, pattern, segment |
-//! | depth from a calibrated projector-camera pair | [`triangulate`] | calib, pattern |
+//! | depth from a calibrated projector-camera pair | [`triangulate`] | calib, num, pattern |
 //! | merging the range images of the families | [`merge`] | num |
 //! | point clouds as flat arrays, and PLY | [`cloud`] | error |
 //! | pictures of every stage, for people | [`stages`] | filter, raster, segment |

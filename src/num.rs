@@ -13,3 +13,13 @@ pub fn max_f32(a: f32, b: f32) -> f32 {
         b
     }
 }
+
+/// [`max_f32`] for `f64` (no `fmax` call in WebAssembly); a NaN `a` gives `b`.
+#[inline]
+pub fn max_f64(a: f64, b: f64) -> f64 {
+    if a >= b {
+        a
+    } else {
+        b
+    }
+}

@@ -9,7 +9,8 @@
 //!
 //! `z(q) = (q·t_z - n0·t) / (n0·(R r) - q·(R r)_z)`, `n0 = n(0)`.
 //!
-//! `R r` is made once per pixel, so a depth costs a few multiplications. A distorted
+//! With `k = Rᵀ·n0`, `n0·(R r) = k·r` and `(R r)_z = R_z·r` (R's last row), so a
+//! depth costs a few multiplications and one division per pixel. A distorted
 //! projector bends the light planes; there each depth is refined by Newton steps on
 //! the true projection ([`Calibration::depth_on_stripe`]).
 //!
@@ -24,6 +25,16 @@ use glam::DVec3;
 /// a tenth of a metre or further than ten metres.
 pub const DEPTH_RANGE_MM: (f64, f64) = (100.0, 10_000.0);
 
+/// One family's light planes in the camera frame.
+#[derive(Clone, Copy)]
+struct FamilyPlanes {
+    abc: (f64, f64, f64),
+    /// `Rᵀ·n0`: `n0·(R r) = k·r`.
+    k: DVec3,
+    /// `n0·t`.
+    n0_t: f64,
+}
+
 /// Per-pixel rays and per-family planes for one (calibration, pattern) pair.
 pub struct Triangulator {
     width: usize,
@@ -31,11 +42,11 @@ pub struct Triangulator {
     /// undistortion is iterative); empty for an undistorted one, whose rays cost two
     /// multiplications (8 bytes a pixel saved, 64 MB at 8 megapixels).
     rays: Vec<[f32; 2]>,
-    /// `R`, camera to projector.
-    rotation: glam::DMat3,
+    /// `R_z`, the last row of `R` (camera to projector).
+    rotation_z: DVec3,
     t: DVec3,
-    /// Per family: (a, b, c) and `n0`.
-    families: Vec<((f64, f64, f64), DVec3)>,
+    /// Per family: (a, b, c), `k = Rᵀ·n0` and `n0·t`.
+    families: Vec<FamilyPlanes>,
     projector_distorted: bool,
     calib: Calibration,
 }
@@ -59,13 +70,14 @@ impl Triangulator {
         let families = (0..spec.families.len())
             .map(|k| {
                 let (a, b, c) = spec.families[k].stripe_coord(spec.width, spec.height);
-                ((a, b, c), DVec3::new(a * p.fx, b * p.fy, a * p.cx + b * p.cy + c))
+                let n0 = DVec3::new(a * p.fx, b * p.fy, a * p.cx + b * p.cy + c);
+                FamilyPlanes { abc: (a, b, c), k: r.transpose() * n0, n0_t: n0.dot(calib.proj_from_cam_translation()) }
             })
             .collect();
         Triangulator {
             width: w,
             rays,
-            rotation: r,
+            rotation_z: r.row(2),
             t: calib.proj_from_cam_translation(),
             families,
             projector_distorted: p.dist != [0.0; 5],
@@ -83,17 +95,18 @@ impl Triangulator {
     /// [`Triangulator::depth`] of pixel index `i` at column and row `(u, v)`.
     #[inline]
     fn depth_at(&self, family: usize, i: usize, (u, v): (usize, usize), q: f64) -> Option<(f64, f64)> {
-        let (abc, n0) = self.families[family];
+        let FamilyPlanes { abc, k, n0_t } = self.families[family];
         let [x, y] = self.ray_at(i, (u, v));
-        let rr = self.rotation * DVec3::new(x as f64, y as f64, 1.0);
-        let num = q * self.t.z - n0.dot(self.t);
-        let den = n0.dot(rr) - q * rr.z;
+        let (x, y) = (x as f64, y as f64);
+        let rz = self.rotation_z.x * x + self.rotation_z.y * y + self.rotation_z.z;
+        let num = q * self.t.z - n0_t;
+        let den = (k.x * x + k.y * y + k.z) - q * rz;
         if den.abs() < 1e-12 {
             return None;
         }
         let mut z = num / den;
         // dz/dq of the quotient.
-        let dzdq = (self.t.z * den + rr.z * num) / (den * den);
+        let dzdq = (self.t.z * den + rz * num) / (den * den);
         if self.projector_distorted {
             z = self.calib.depth_on_stripe(u as f64, v as f64, abc.0, abc.1, abc.2, q)?;
         }
@@ -140,7 +153,7 @@ impl Triangulator {
                 if let Some((z, dzdq)) = self.depth_at(family, i, (u, v), qi as f64) {
                     depth[i] = z as f32;
                     if weigh {
-                        weight[i] = (1.0 / (dzdq * dzdq).max(1e-9)) as f32;
+                        weight[i] = (1.0 / crate::num::max_f64(dzdq * dzdq, 1e-9)) as f32;
                     }
                 }
             }
