@@ -30,6 +30,13 @@ pub const MIN_SUPPORT: usize = 3;
 /// bit mask of contributing families into `families`. An empty weight plane weighs
 /// every pixel 1 (a single family needs none).
 pub fn merge_into<D: AsRef<[f32]>>(depths: &[D], weights: &[Vec<f32>], out: &mut [f32], families: &mut [u8]) {
+    if let ([a, b], [wa, wb]) = (depths, weights) {
+        let (a, b) = (a.as_ref(), b.as_ref());
+        if [a.len(), b.len(), wa.len(), wb.len(), families.len()].iter().all(|&n| n == out.len()) {
+            merge_two(a, b, wa, wb, out, families);
+            return;
+        }
+    }
     for i in 0..out.len() {
         let (mut sum, mut wsum, mut mask) = (0.0f64, 0.0f64, 0u8);
         for (k, (d, w)) in depths.iter().zip(weights).enumerate() {
@@ -54,6 +61,24 @@ pub fn merge_into<D: AsRef<[f32]>>(depths: &[D], weights: &[Vec<f32>], out: &mut
         }
         out[i] = z;
         families[i] = mask;
+    }
+}
+
+/// [`merge_into`] of two weighted families, one pass over planes of one length (the
+/// common case, with the same results).
+fn merge_two(a: &[f32], b: &[f32], wa: &[f32], wb: &[f32], out: &mut [f32], families: &mut [u8]) {
+    for (((o, f), (&za, &zb)), (&wa, &wb)) in out.iter_mut().zip(families.iter_mut()).zip(a.iter().zip(b)).zip(wa.iter().zip(wb)) {
+        (*o, *f) = match (za.is_nan(), zb.is_nan()) {
+            (true, true) => (f32::NAN, 0),
+            (false, true) => if wa > 0.0 { (za, 1) } else { (f32::NAN, 0) },
+            (true, false) => if wb > 0.0 { (zb, 2) } else { (f32::NAN, 0) },
+            (false, false) => {
+                let wsum = wa as f64 + wb as f64;
+                let z = ((za as f64 * wa as f64 + zb as f64 * wb as f64) / wsum) as f32;
+                let tol = agree_tolerance(z);
+                if wsum > 0.0 && (za - z).abs() <= tol && (zb - z).abs() <= tol { (z, 3) } else { (f32::NAN, 0) }
+            }
+        };
     }
 }
 
@@ -130,6 +155,38 @@ mod tests {
         assert!((out[0] - 700.75).abs() < 1e-3 && fam[0] == 3);
         assert!(out[1].is_nan() && fam[1] == 0);
         assert_eq!((out[2], fam[2]), (800.0, 2));
+    }
+
+    /// Two families take a path of their own; it gives what the general one gives,
+    /// bit for bit, on every combination of present, missing, agreeing and
+    /// disagreeing depths and of zero weights.
+    #[test]
+    fn two_families_match_the_general_merge() {
+        let values = [f32::NAN, 700.0, 701.5, 703.5, 760.0, 333.25];
+        let ws = [0.0, 1.0, 2.5, 1e-3];
+        let mut planes: [Vec<f32>; 4] = Default::default();
+        for &za in &values {
+            for &zb in &values {
+                for &wa in &ws {
+                    for &wb in &ws {
+                        for (p, v) in planes.iter_mut().zip([za, zb, wa, wb]) {
+                            p.push(v);
+                        }
+                    }
+                }
+            }
+        }
+        let [a, b, wa, wb] = planes;
+        let n = a.len();
+        let (mut out, mut fam) = (vec![0.0; n], vec![9; n]);
+        merge_into(&[&a, &b], &[wa.clone(), wb.clone()], &mut out, &mut fam);
+        // The general path: three families, the third empty everywhere.
+        let none = vec![f32::NAN; n];
+        let (mut out3, mut fam3) = (vec![0.0; n], vec![9; n]);
+        merge_into(&[&a, &b, &none], &[wa, wb, vec![1.0; n]], &mut out3, &mut fam3);
+        assert_eq!(out.iter().map(|v| v.to_bits()).collect::<Vec<_>>(), out3.iter().map(|v| v.to_bits()).collect::<Vec<_>>());
+        assert_eq!(fam, fam3);
+        assert!(fam.contains(&3) && fam.contains(&1) && fam.contains(&2) && out.iter().any(|v| v.is_nan()));
     }
 
     /// The fast path gives what the plain definition gives, borders included.
