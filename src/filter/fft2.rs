@@ -134,16 +134,18 @@ fn fft_error(e: realfft::FftError) -> Error {
 }
 
 /// The transform length of at least `min` (even, with no prime factor above 7: RustFFT
-/// has butterflies for 2, 3, 5 and 7) that is cheapest by a simple cost model: the
-/// length times `1 + ODD_FACTOR_COST` per odd prime factor (with multiplicity).
+/// has butterflies for 2, 3, 5 and 7) that is cheapest by a simple cost model, the
+/// length times `1 + ODD_FACTOR_COST` per odd prime factor (with multiplicity), among
+/// the lengths at most [`MAX_SIZE_GROWTH`] above the smallest such length (the planes
+/// and the memory grow with the length).
 ///
-/// The smallest such length is not the fastest: in WebAssembly, one forward and one
-/// inverse transform of 672 x 504 took 2.4-2.5 ms, of 672 x 512 2.0-2.2 ms
+/// The smallest such length is not always the fastest: in WebAssembly, one forward and
+/// one inverse transform of 672 x 504 took 2.4-2.5 ms, of 672 x 512 2.0-2.2 ms
 /// (504 = 2³·3²·7, 512 = 2⁹), while 700, 750 and 756 wide (two or three odd factors,
 /// few twos) took 3-3.9 ms against about 2 ms for 672 and 768 (fastest of 80 each, the
 /// 2-D transform of [`Fft2`]).
 pub fn fast_size(min: usize) -> usize {
-    let cost = |n: usize| -> Option<f64> {
+    let odd_factors = |n: usize| -> Option<usize> {
         if n % 2 != 0 {
             return None;
         }
@@ -157,12 +159,15 @@ pub fn fast_size(min: usize) -> usize {
                 odd += 1;
             }
         }
-        (m == 1).then(|| n as f64 * (1.0 + ODD_FACTOR_COST * odd as f64))
+        (m == 1).then_some(odd)
     };
     // A power of two at least `min` always qualifies and bounds the search.
     let min = min.max(2);
-    let mut best = (min.next_power_of_two(), min.next_power_of_two() as f64);
-    for n in min..best.0 {
+    let smallest = (min..=min.next_power_of_two()).find(|&n| odd_factors(n).is_some()).unwrap_or(min.next_power_of_two());
+    let limit = (smallest as f64 * (1.0 + MAX_SIZE_GROWTH)) as usize;
+    let cost = |n: usize| odd_factors(n).map(|odd| n as f64 * (1.0 + ODD_FACTOR_COST * odd as f64));
+    let mut best = (smallest, cost(smallest).unwrap_or(f64::MAX));
+    for n in smallest + 1..=limit {
         if let Some(c) = cost(n) {
             if c < best.1 {
                 best = (n, c);
@@ -171,6 +176,11 @@ pub fn fast_size(min: usize) -> usize {
     }
     best.0
 }
+
+/// How much longer than the smallest fast length [`fast_size`] may choose, as a
+/// fraction: enough for 504 -> 512 (VGA's height), not for 840 -> 1024 (the tiles of
+/// large frames, whose memory counts).
+const MAX_SIZE_GROWTH: f64 = 0.05;
 
 /// The extra cost of a transform length per odd prime factor, relative to a power of
 /// two (see [`fast_size`]).
@@ -219,6 +229,8 @@ mod tests {
         assert_eq!(fast_size(504), 512);
         assert_eq!(fast_size(511), 512);
         assert_eq!(fast_size(1), 2);
+        // A large frame's tile (800 + 24) keeps 840 rather than 1024.
+        assert_eq!(fast_size(824), 840);
         for min in 1..3000 {
             let n = fast_size(min);
             let mut m = n;
@@ -228,6 +240,7 @@ mod tests {
                 }
             }
             assert!(n >= min && n % 2 == 0 && m == 1 && n <= min.next_power_of_two().max(2), "{min} -> {n}");
+            assert!(n as f64 <= 1.05 * (min..).find(|&k| k % 2 == 0 && { let mut m = k; for p in [2, 3, 5, 7] { while m % p == 0 { m /= p; } } m == 1 }).unwrap() as f64, "{min} -> {n}");
         }
     }
 }
