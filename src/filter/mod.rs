@@ -952,26 +952,21 @@ impl Region {
             let (m00, m10, m01, m11) = (mode(0, 0), mode(pw / 2, 0), mode(0, ph / 2), mode(pw / 2, ph / 2));
             for y in 0..h {
                 let sy = if y % 2 == 0 { 1.0 } else { -1.0 };
-                for x in 0..w {
-                    let sx = if x % 2 == 0 { 1.0 } else { -1.0 };
-                    let i = y * w + x;
-                    let lt = self.tmp[i] - (m00 + sx * m10 + sy * m01 + sx * sy * m11);
-                    self.p[ch][i] = 0.5 * lt;
+                // The modes' sum at even and at odd columns of this row.
+                let modes = [1.0f32, -1.0].map(|sx| m00 + sx * m10 + sy * m01 + sx * sy * m11);
+                let row = y * w..(y + 1) * w;
+                for (x, (p, t)) in self.p[ch][row.clone()].iter_mut().zip(&self.tmp[row]).enumerate() {
+                    *p = 0.5 * (t - modes[x % 2]);
                 }
             }
-            // The two inverse transforms, `Hxx` into Q and `Hxy` into C.
+            // The two inverse transforms, `Hxx` into Q = A - l̃/2 = A - P and `Hxy`
+            // into C.
             let spectrum = &self.spectrum;
             let [lane_xx, lane_xy] = &mut self.inverse;
-            let (rxx, rxy) = join(
-                || lane_xx.restore(spectrum, &self.hxx, &mut self.q[ch], w, h),
-                || lane_xy.restore(spectrum, &self.hxy, &mut self.c[ch], w, h),
-            );
+            let (p, q, c) = (&self.p[ch], &mut self.q[ch], &mut self.c[ch]);
+            let (rxx, rxy) = join(|| lane_xx.restore(spectrum, &self.hxx, Some(p), q, w, h), || lane_xy.restore(spectrum, &self.hxy, None, c, w, h));
             rxx?;
             rxy?;
-            // Q = A - l̃/2 = A - P.
-            for (q, p) in self.q[ch].iter_mut().zip(&self.p[ch]) {
-                *q -= *p;
-            }
         }
         Ok(())
     }
@@ -1114,15 +1109,20 @@ impl InverseLane {
         InverseLane { work: vec![Complex32::new(0.0, 0.0); fft.spectrum_len()], out: vec![0.0; pw * ph], fft, }
     }
 
-    /// The inverse transform of `spectrum · response` cropped to `w` x `h` into `dst`.
-    fn restore(&mut self, spectrum: &[Complex32], response: &[f32], dst: &mut [f32], w: usize, h: usize) -> Result<()> {
+    /// The inverse transform of `spectrum · response` cropped to `w` x `h` into `dst`,
+    /// minus `minus` (a `w` x `h` plane) when given.
+    fn restore(&mut self, spectrum: &[Complex32], response: &[f32], minus: Option<&[f32]>, dst: &mut [f32], w: usize, h: usize) -> Result<()> {
         for ((o, s), f) in self.work.iter_mut().zip(spectrum).zip(response) {
             *o = s * *f;
         }
         self.fft.inverse(&mut self.work, &mut self.out)?;
         let pw = self.out.len() / self.fft.height();
         for y in 0..h {
-            dst[y * w..(y + 1) * w].copy_from_slice(&self.out[y * pw..y * pw + w]);
+            let (d, src) = (&mut dst[y * w..(y + 1) * w], &self.out[y * pw..y * pw + w]);
+            match minus {
+                Some(m) => d.iter_mut().zip(src).zip(&m[y * w..(y + 1) * w]).for_each(|((d, s), m)| *d = s - m),
+                None => d.copy_from_slice(src),
+            }
         }
         Ok(())
     }
