@@ -118,23 +118,32 @@ pub fn remove_isolated(depth: &mut [f32], width: usize, height: usize, scratch: 
             }
             support
         };
-        for x in 0..width {
+        let mut border = |x: usize, row: &mut [f32]| {
             let z = here[x];
-            if z.is_nan() {
-                continue;
-            }
-            let support = match rows {
-                [Some(up), Some(mid), Some(down)] if x > 0 && x + 1 < width => {
-                    let tol = neighbour_tolerance(z);
-                    let near = |v: f32| ((v - z).abs() <= tol) as usize;
-                    near(up[x - 1]) + near(up[x]) + near(up[x + 1]) + near(mid[x - 1]) + near(mid[x + 1]) + near(down[x - 1]) + near(down[x]) + near(down[x + 1])
-                }
-                _ => general(x, z),
-            };
-            if support < MIN_SUPPORT {
+            if !z.is_nan() && general(x, z) < MIN_SUPPORT {
                 row[x] = f32::NAN;
                 removed += 1;
             }
+        };
+        match rows {
+            [Some(up), Some(mid), Some(down)] if width >= 3 => {
+                border(0, row);
+                border(width - 1, row);
+                // The interior without branches (it vectorizes): a NaN depth has no
+                // support and is kept as it is.
+                let mut gone = 0;
+                for (x, out) in row.iter_mut().enumerate().take(width - 1).skip(1) {
+                    let z = mid[x];
+                    let tol = neighbour_tolerance(z);
+                    let near = |v: f32| ((v - z).abs() <= tol) as usize;
+                    let support = near(up[x - 1]) + near(up[x]) + near(up[x + 1]) + near(mid[x - 1]) + near(mid[x + 1]) + near(down[x - 1]) + near(down[x]) + near(down[x + 1]);
+                    let drop = !z.is_nan() && support < MIN_SUPPORT;
+                    *out = if drop { f32::NAN } else { z };
+                    gone += drop as usize;
+                }
+                removed += gone;
+            }
+            _ => (0..width).for_each(|x| border(x, row)),
         }
         std::mem::swap(&mut above, &mut here);
     }
