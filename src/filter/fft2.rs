@@ -165,16 +165,9 @@ pub fn fast_size(min: usize) -> usize {
     let min = min.max(2);
     let smallest = (min..=min.next_power_of_two()).find(|&n| odd_factors(n).is_some()).unwrap_or(min.next_power_of_two());
     let limit = (smallest as f64 * (1.0 + MAX_SIZE_GROWTH)) as usize;
-    let cost = |n: usize| odd_factors(n).map(|odd| n as f64 * (1.0 + ODD_FACTOR_COST * odd as f64));
-    let mut best = (smallest, cost(smallest).unwrap_or(f64::MAX));
-    for n in smallest + 1..=limit {
-        if let Some(c) = cost(n) {
-            if c < best.1 {
-                best = (n, c);
-            }
-        }
-    }
-    best.0
+    let cost = |n: usize| Some((n, n as f64 * (1.0 + ODD_FACTOR_COST * odd_factors(n)? as f64)));
+    // The first of equally cheap lengths, so the shorter.
+    (smallest..=limit).filter_map(cost).min_by(|a, b| a.1.total_cmp(&b.1)).map_or(smallest, |(n, _)| n)
 }
 
 /// How much longer than the smallest fast length [`fast_size`] may choose, as a
