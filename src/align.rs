@@ -13,7 +13,22 @@
 //!   of the `P` the pattern uses (an exact transition the most, a wildcard nothing);
 //!   one whose evidence contradicts it loses [`MISREAD_BITS`];
 //! - a spurious edge costs [`SPURIOUS_BITS`], a missed boundary [`MISSED_BITS`] (at most
-//!   [`MAX_MISSED`] in a row).
+//!   [`MAX_MISSED`] in a row), or [`INVISIBLE_BITS`] where its transition changes only
+//!   channels that neither neighbouring edge can read: on a saturated dye only the
+//!   boundaries where its own channel changes make edges;
+//! - the spacing of two consecutively labelled edges must fit the number of ranks
+//!   between them at the local stripe period: each labelling carries a running estimate
+//!   of that period (set by its first step), and a step whose spacing is off
+//!   costs the bits of its log-ratio under a Gaussian of [`SPACING_SPREAD`] and the
+//!   position noise ([`SPACING_CAP_BITS`] at most). Where edges show only some
+//!   boundaries (one readable channel), their spacing is what says how many were
+//!   skipped;
+//! - a jump to any rank (a depth discontinuity inside the run: the surface beyond shows
+//!   another part of the pattern) costs [`JUMP_BITS`] and lands only on an edge with
+//!   specific evidence ([`JUMP_MAX_CODES`]) that the best labelling so far cannot
+//!   take in a short step. Without it, the edges beyond a
+//!   discontinuity could only be labelled by a wrong labelling carried on from before
+//!   it, which with the period estimate and exact codes can look consistent.
 //!
 //! A forward and a backward pass give, for every edge and every label, the score of the
 //! best labelling of the whole run with the edge so labelled. An edge takes the rank of
@@ -33,6 +48,56 @@ pub const MISSED_BITS: f32 = 3.0;
 
 /// Most boundaries that may be missed between two consecutive labelled edges.
 pub const MAX_MISSED: usize = 2;
+
+/// Cost of a boundary of the pattern that has no edge where its transition changes
+/// only channels that neither neighbouring edge can read (a saturated dye's dark
+/// channels): no edge is what such a boundary shows, so skipping it is nearly free.
+pub const INVISIBLE_BITS: f32 = 0.3;
+
+/// Most ranks one step may cross (`MAX_STEP - 1` boundaries without an edge) where
+/// some channel is unreadable at both edges: on a red dye only the boundaries where
+/// red changes make edges, and red stays the same over up to five boundaries of the
+/// default pattern.
+pub const MAX_STEP: usize = 6;
+
+/// Relative spread of the spacing of neighbouring boundaries about the local stripe
+/// period (slant and curvature change the period from one stripe to the next): the
+/// simulated hard scenes' local period varies by ±8 % between quartiles over whole
+/// objects, much less from one stripe to the next.
+pub const SPACING_SPREAD: f32 = 0.08;
+
+/// Standard deviation of a boundary's sub-pixel position, pixels (a webcam frame's,
+/// with JPEG and 4:2:0 chroma; see [`crate::decode::SMOOTH_TOLERANCE`]).
+pub const POSITION_NOISE: f32 = 0.25;
+
+/// Largest cost of a spacing that does not fit the step between two edges, bits:
+/// about two misreads, what a depth discontinuity between the two edges costs.
+pub const SPACING_CAP_BITS: f32 = 4.0;
+
+/// How much of a step's measured period goes into a labelling's running estimate of
+/// the local stripe period.
+pub const PACE_UPDATE: f32 = 0.35;
+
+/// The period estimate of a labelling that starts at an edge: unknown until its first
+/// step, which costs nothing for its spacing and sets the estimate (the expected period
+/// is off by a third on a near object or a slanted surface).
+const UNKNOWN_PACE: f32 = 0.0;
+
+/// Range of the running period estimate, as multiples of the expected period.
+pub const PACE_RANGE: (f32, f32) = (0.5, 2.0);
+
+/// Cost of a jump between two labelled edges to any rank (a depth discontinuity: the
+/// stripes beyond belong to another part of the pattern), bits: four misreads, so that
+/// about three exact codes in a row are needed to pay for it. A jump lands only on an
+/// edge that the best labelling so far cannot take in a short step: offered at every
+/// edge, jumps keep a dozen more labels in the beam and made the decoding four times
+/// slower.
+pub const JUMP_BITS: f32 = 12.0;
+
+/// Most compatible codes of an edge a jump may land on: a jump needs specific evidence
+/// (and this keeps the candidates of every other edge to the steps from its
+/// predecessor's labels).
+pub const JUMP_MAX_CODES: u32 = 2;
 
 /// Margin of an edge's best rank over every other rank for it to be taken, bits.
 /// Measured on the simulated scenes (`eval --scenes sphere,colorchecker,sphere-dye,
@@ -54,6 +119,46 @@ use crate::num::max_f32;
 
 const NONE: f32 = f32::NEG_INFINITY;
 
+/// Per channel c and value v (0 down, 1 unchanged, 2 up), the codes whose channel c
+/// has value v, as a [`crate::segment::CodeMask`].
+const fn digit_masks() -> [[u32; 3]; 3] {
+    let mut out = [[0u32; 3]; 3];
+    let mut code = 0;
+    while code < 27 {
+        let digits = [code / 9, code / 3 % 3, code % 3];
+        let mut c = 0;
+        while c < 3 {
+            out[c][digits[c]] |= 1 << code;
+            c += 1;
+        }
+        code += 1;
+    }
+    out
+}
+const DIGITS: [[u32; 3]; 3] = digit_masks();
+
+/// The channels (bit c) an edge with the compatible codes `mask` cannot read: every
+/// value is compatible.
+#[inline]
+pub fn blind_channels(mask: u32) -> u8 {
+    let mut blind = 0;
+    for (c, d) in DIGITS.iter().enumerate() {
+        if mask & d[0] != 0 && mask & d[1] != 0 && mask & d[2] != 0 {
+            blind |= 1 << c;
+        }
+    }
+    blind
+}
+
+/// The channels (bit c) whose value code `code` changes.
+#[inline]
+pub fn changed_channels(code: u8) -> u8 {
+    if code >= 27 {
+        return 7;
+    }
+    (0..3).filter(|&ch| DIGITS[ch][1] >> code & 1 == 0).fold(0, |m, ch| m | 1 << ch)
+}
+
 /// Reusable tables of the alignment of one run.
 ///
 /// The labels carried on for an edge (its ranks within [`BEAM_BITS`] of its best prefix
@@ -66,6 +171,16 @@ pub struct Aligner {
     /// Per rank, the bit of its code in a [`crate::segment::CodeMask`] widened to 64
     /// bits (bit 63, never set, for boundaries without a code).
     rank_bit: Vec<u8>,
+    /// Per rank, the channels (bit c) the projector lights on at least one side of the
+    /// boundary (all for the spare ranks): only there does an unreadable channel say
+    /// that the surface hides it, and not that the pattern is black in it.
+    lit: Vec<u8>,
+    /// Per set of channels the surface hides at both ends of a step (unreadable there
+    /// though the projector lights them; 8 sets), the cost of
+    /// missing the ranks before each rank: `missed[b * (nr + MAX_STEP + 1) + r]` is the
+    /// sum over ranks below `r`, so a step from `r` to `r + k` costs
+    /// `missed[r + k] - missed[r + 1]`.
+    missed: Vec<f32>,
     /// Per code, the ranks that show it: bit sets of `words` 64-bit words.
     words: usize,
     code_ranks: Vec<u64>,
@@ -73,42 +188,69 @@ pub struct Aligner {
     /// evidence of an edge compatible with 0..=27 of them.
     used: u32,
     gain_of: [f32; 28],
-    /// Per edge, the bits of evidence its compatible codes carry.
+    /// Per edge, the bits of evidence its compatible codes carry, and the channels it
+    /// cannot read.
     gain: Vec<f32>,
+    blind: Vec<u8>,
+    /// Per edge, whether a labelling may jump to it (see [`JUMP_BITS`]).
+    jumps: Vec<bool>,
     /// The labels carried on, edge after edge: edge `i`'s are `start[i]..start[i + 1]`,
     /// each with its rank, the best prefix score with the edge labelled with it
     /// (`labelled`), with it the last label at or before the edge (`last`), and the best
-    /// suffix score after the edge given that last label (`after`).
+    /// suffix score after the edge given that last label (`after`); with the last
+    /// labelled edge's position (`last_pos`) and the running estimate of the stripe
+    /// period (`pace`) of the best labelling so far.
     start: Vec<usize>,
     rank: Vec<u32>,
     labelled: Vec<f32>,
     last: Vec<f32>,
     after: Vec<f32>,
+    last_pos: Vec<f32>,
+    pace: Vec<f32>,
     /// Per edge, the best prefix score with nothing labelled yet (`none`), and the best
     /// suffix score after the edge with nothing labelled at or before it (`after_none`).
     none: Vec<f32>,
     after_none: Vec<f32>,
-    /// Per-rank scratch, [`NONE`] between uses (`MAX_MISSED + 1` spare ranks at the end):
+    /// Per-rank scratch, [`NONE`] between uses (`MAX_STEP` spare ranks at the end):
     /// forward, the best score of reaching a rank from the previous edge's labels
-    /// (`reach`) and of keeping the previous edge's label (`kept`), with the set of ranks
-    /// touched (`cand`); backward, the next edge's suffix scores (`stay`) and evidence
-    /// (`emitted`).
+    /// (`reach`, with the period estimate of that step, `reach_pace`) and of keeping the
+    /// previous edge's label (`kept`, with its `kept_pos` and `kept_pace`), with the set
+    /// of ranks touched (`cand`); backward, the next edge's suffix scores (`stay`) and
+    /// evidence (`emitted`).
     reach: Vec<f32>,
+    reach_pace: Vec<f32>,
     kept: Vec<f32>,
+    kept_pos: Vec<f32>,
+    kept_pace: Vec<f32>,
     cand: Vec<u64>,
     stay: Vec<f32>,
     emitted: Vec<f32>,
-    /// One edge's candidates before the beam: rank, `labelled`, `last`.
+    /// One edge's candidates before the beam: rank, `labelled`, `last`, `last_pos`,
+    /// `pace`.
     edge_rank: Vec<u32>,
     edge_labelled: Vec<f32>,
     edge_last: Vec<f32>,
+    edge_pos: Vec<f32>,
+    edge_pace: Vec<f32>,
+}
+
+/// What the alignment of one run reads of each edge and of the pattern's appearance.
+#[derive(Clone, Copy)]
+pub struct RunInput<'a> {
+    /// Each edge's compatible codes.
+    pub masks: &'a [u32],
+    /// Each edge's position along the line, pixels, increasing.
+    pub positions: &'a [f32],
+    /// The expected stripe period along the line, pixels.
+    pub period: f32,
 }
 
 impl Aligner {
     /// Tables for a pattern whose boundaries, in the order of the scan direction, show
-    /// the codes `seen` ([`crate::segment::NO_CODE`] where a boundary has none).
-    pub fn new(seen: impl Iterator<Item = u8>) -> Self {
-        let rank_bit: Vec<u8> = seen.map(|c| if c < 27 { c } else { 63 }).collect();
+    /// the codes `seen` ([`crate::segment::NO_CODE`] where a boundary has none), each
+    /// with the channels (bit c) the projector lights on at least one side of it.
+    pub fn new(seen: impl Iterator<Item = (u8, u8)>) -> Self {
+        let (rank_bit, mut lit): (Vec<u8>, Vec<u8>) = seen.map(|(c, l)| (if c < 27 { c } else { 63 }, l & 7)).unzip();
         let nr = rank_bit.len();
         let words = nr.div_ceil(64);
         let mut code_ranks = vec![0u64; 27 * words];
@@ -119,15 +261,31 @@ impl Aligner {
         }
         let used = rank_bit.iter().filter(|&&c| c < 27).fold(0u32, |m, &c| m | 1 << c);
         let p = used.count_ones().max(1) as f32;
-        let spare = nr + MAX_MISSED + 1;
+        let spare = nr + MAX_STEP + 1;
+        lit.resize(spare, 7);
+        // The channels each rank's transition changes (all, for a rank without a code).
+        let changes: Vec<u8> = rank_bit.iter().map(|&c| changed_channels(c)).collect();
+        let mut missed = vec![0f32; 8 * spare];
+        for blind in 0..8u8 {
+            let row = &mut missed[blind as usize * spare..(blind as usize + 1) * spare];
+            for r in 0..spare - 1 {
+                let visible = r >= nr || changes[r] & !blind != 0;
+                row[r + 1] = row[r] + if visible { MISSED_BITS } else { INVISIBLE_BITS };
+            }
+        }
         Aligner {
             rank_bit,
+            lit,
+            missed,
             words,
             code_ranks,
             used,
             gain_of: std::array::from_fn(|m| (p / m.max(1) as f32).log2()),
             reach: vec![NONE; spare],
+            reach_pace: vec![0.0; spare],
             kept: vec![NONE; spare],
+            kept_pos: vec![0.0; spare],
+            kept_pace: vec![0.0; spare],
             cand: vec![0; words],
             stay: vec![NONE; spare],
             emitted: vec![NONE; spare],
@@ -135,63 +293,102 @@ impl Aligner {
         }
     }
 
-    /// Label the edges whose compatible codes are `masks` (one run, in scan order):
-    /// `out[i]` is the rank of edge `i`, or -1 where no rank is clear enough.
-    pub fn align(&mut self, masks: &[u32], out: &mut [i32]) {
-        let n = masks.len();
+    /// Label the edges of one run (in scan order): `out[i]` is the rank of edge `i`, or
+    /// -1 where no rank is clear enough.
+    pub fn align(&mut self, run: RunInput, out: &mut [i32]) {
+        let n = run.masks.len();
         let nr = self.rank_bit.len();
         out.iter_mut().for_each(|o| *o = -1);
-        if n == 0 || nr == 0 {
+        if n == 0 || nr == 0 || run.positions.len() != n {
             return;
         }
         // The information of `m` compatible codes depends on `m` alone (a table).
         self.gain.clear();
-        self.gain.extend(masks.iter().map(|&m| self.gain_of[(m & self.used).count_ones() as usize]));
-        self.forward(masks);
-        self.backward(masks);
+        self.gain.extend(run.masks.iter().map(|&m| self.gain_of[(m & self.used).count_ones() as usize]));
+        self.blind.clear();
+        self.blind.extend(run.masks.iter().map(|&m| blind_channels(m)));
+        self.forward(run);
+        self.backward(run);
         self.decide(out);
     }
 
     /// Prefix scores, edge after edge: the labels of an edge are the previous edge's
-    /// labels and up to [`MAX_MISSED`] + 1 ranks beyond them, and where a new alignment
-    /// may still start (nothing labelled is within the beam of the best), every rank
-    /// the edge fits; only those within [`BEAM_BITS`] of the edge's best are kept.
-    fn forward(&mut self, masks: &[u32]) {
+    /// labels and up to [`MAX_MISSED`] + 1 ranks beyond them ([`MAX_STEP`] where a
+    /// channel is unreadable at both edges), and where a new alignment may still start
+    /// (nothing labelled is within the beam of the best), every rank the edge fits; only
+    /// those within [`BEAM_BITS`] of the edge's best are kept.
+    fn forward(&mut self, run: RunInput) {
         let nr = self.rank_bit.len();
+        let spare = nr + MAX_STEP + 1;
+        let (masks, positions, period) = (run.masks, run.positions, run.period);
+        let pace_range = (PACE_RANGE.0 * period, PACE_RANGE.1 * period);
         // The fields apart, so that the loops keep their slices in registers.
-        let Aligner { rank_bit, words, code_ranks, gain, start, rank, labelled, last, none, reach, kept, cand, edge_rank, edge_labelled, edge_last, .. } = self;
+        let Aligner {
+            rank_bit, lit, missed, words, code_ranks, used, gain, blind, jumps, start, rank, labelled, last, last_pos, pace, none, reach, reach_pace, kept, kept_pos,
+            kept_pace, cand, edge_rank, edge_labelled, edge_last, edge_pos, edge_pace, ..
+        } = self;
         let words = *words;
+        for v in [&mut *labelled, &mut *last, &mut *last_pos, &mut *pace, &mut *none] {
+            v.clear();
+        }
         rank.clear();
-        labelled.clear();
-        last.clear();
-        none.clear();
         start.clear();
         // One edge's candidates, before the beam: at most every rank.
         edge_rank.resize(nr, 0);
-        edge_labelled.resize(nr, NONE);
-        edge_last.resize(nr, NONE);
+        for v in [&mut *edge_labelled, &mut *edge_last, &mut *edge_pos, &mut *edge_pace] {
+            v.resize(nr, NONE);
+        }
         let (reach, kept) = (&mut reach[..], &mut kept[..]);
         let mut prev = 0..0;
         let mut prev_max = NONE;
+        // The rank of the previous edge's best labelling (u32::MAX before the first).
+        let mut prev_best = u32::MAX;
+        jumps.clear();
         for (i, &mask) in masks.iter().enumerate() {
             let edge = (mask as u64, gain[i]);
+            let pos = positions[i];
             let prev_none = if i == 0 { 0.0 } else { none[i - 1] };
             none.push(prev_none - SPURIOUS_BITS);
-            for (&r, &v) in rank[prev.clone()].iter().zip(&last[prev.clone()]) {
-                let r = r as usize;
+            let both_blind = if i == 0 { 0 } else { blind[i - 1] & blind[i] };
+            for e in prev.clone() {
+                let (r, v, from_pos, p) = (rank[e] as usize, last[e], last_pos[e], pace[e]);
                 kept[r] = v - SPURIOUS_BITS;
+                kept_pos[r] = from_pos;
+                kept_pace[r] = p;
                 cand[r / 64] |= 1 << (r % 64);
+                let gap = pos - from_pos;
+                let hidden = both_blind & lit[r];
                 // The spare entries past the last rank take the steps beyond it, which
                 // are never candidates.
-                for k in 1..=MAX_MISSED + 1 {
+                for k in 1..=steps(hidden) {
                     let t = r + k;
-                    reach[t] = max_f32(reach[t], v - jump(k));
+                    let Some(cost) = skip_cost(missed, spare, hidden & lit[t], r, k) else { continue };
+                    let s = v - cost - spacing_bits(gap, k, p);
+                    if s > reach[t] {
+                        reach[t] = s;
+                        let seen = gap / k as f32;
+                        let next = if p == UNKNOWN_PACE { seen } else { p + PACE_UPDATE * (seen - p) };
+                        reach_pace[t] = next.clamp(pace_range.0, pace_range.1);
+                    }
                     if t < nr {
                         cand[t / 64] |= 1 << (t % 64);
                     }
                 }
             }
-            let fresh = i == 0 || prev_none >= prev_max - BEAM_BITS;
+            // A labelling may start here after nothing, or after a jump from the best
+            // labelling so far where the edge's evidence is specific enough.
+            // A jump is looked for only where the best labelling so far cannot take the
+            // edge in a short step (what a discontinuity looks like; elsewhere the
+            // candidates stay those of the steps).
+            let explained = prev_best != u32::MAX
+                && (1..=MAX_MISSED + 1).any(|k| {
+                    let t = prev_best as usize + k;
+                    t < nr && emit(rank_bit, edge, t) > 0.0
+                });
+            let jump = i > 0 && !explained && jumpable(mask, *used);
+            jumps.push(jump);
+            let restart = if jump { max_f32(prev_none, prev_max - JUMP_BITS) } else { prev_none };
+            let fresh = i == 0 || restart >= prev_max - BEAM_BITS;
             if fresh {
                 let mut m = mask & ((1 << 27) - 1);
                 while m != 0 {
@@ -204,21 +401,32 @@ impl Aligner {
             }
             let mut count = 0;
             let mut row_max = NONE;
+            let mut best_rank = u32::MAX;
             for (w, word) in cand.iter_mut().enumerate() {
                 let mut bits = std::mem::take(word);
                 while bits != 0 {
                     let r = w * 64 + bits.trailing_zeros() as usize;
                     bits &= bits - 1;
-                    let from = if fresh { max_f32(reach[r], prev_none) } else { reach[r] };
+                    let (from, p) = if fresh && restart > reach[r] { (restart, UNKNOWN_PACE) } else { (reach[r], reach_pace[r]) };
                     let here = from + emit(rank_bit, edge, r);
-                    let v = max_f32(here, kept[r]);
-                    reach[r] = NONE;
-                    kept[r] = NONE;
                     edge_rank[count] = r as u32;
                     edge_labelled[count] = here;
-                    edge_last[count] = v;
+                    if here >= kept[r] {
+                        edge_last[count] = here;
+                        edge_pos[count] = pos;
+                        edge_pace[count] = p;
+                    } else {
+                        edge_last[count] = kept[r];
+                        edge_pos[count] = kept_pos[r];
+                        edge_pace[count] = kept_pace[r];
+                    }
+                    reach[r] = NONE;
+                    kept[r] = NONE;
+                    if edge_last[count] > row_max {
+                        row_max = edge_last[count];
+                        best_rank = r as u32;
+                    }
                     count += 1;
-                    row_max = max_f32(row_max, v);
                 }
             }
             for t in nr..reach.len() {
@@ -233,18 +441,24 @@ impl Aligner {
                     rank.push(edge_rank[c]);
                     labelled.push(edge_labelled[c]);
                     last.push(edge_last[c]);
+                    last_pos.push(edge_pos[c]);
+                    pace.push(edge_pace[c]);
                 }
             }
             prev = begin..rank.len();
             prev_max = row_max;
+            prev_best = best_rank;
         }
         start.push(rank.len());
     }
 
     /// Suffix scores, from the last edge back: for each label of an edge, the best of
-    /// keeping it over a spurious next edge and of stepping to a label of the next edge.
-    fn backward(&mut self, masks: &[u32]) {
+    /// keeping it over a spurious next edge and of stepping to a label of the next edge
+    /// (the step's spacing measured from this edge, at the label's period estimate).
+    fn backward(&mut self, run: RunInput) {
+        let (masks, positions) = (run.masks, run.positions);
         let (n, nr) = (masks.len(), self.rank_bit.len());
+        let spare = nr + MAX_STEP + 1;
         self.after.clear();
         self.after.resize(self.rank.len(), NONE);
         self.after_none.clear();
@@ -256,6 +470,8 @@ impl Aligner {
         for i in (0..n - 1).rev() {
             let edge = (masks[i + 1] as u64, self.gain[i + 1]);
             let next = self.start[i + 1]..self.start[i + 2];
+            let gap = positions[i + 1] - positions[i];
+            let both_blind = self.blind[i] & self.blind[i + 1];
             let mut best_start = NONE;
             for e in next.clone() {
                 let t = self.rank[e] as usize;
@@ -264,13 +480,18 @@ impl Aligner {
                 self.emitted[t] = emitted;
                 best_start = max_f32(best_start, emitted + self.after[e]);
             }
+            let jump = if self.jumps[i + 1] { best_start - JUMP_BITS } else { NONE };
             for e in self.start[i]..self.start[i + 1] {
                 let r = self.rank[e] as usize;
-                let mut v = self.stay[r] - SPURIOUS_BITS;
-                for k in 1..=MAX_MISSED + 1 {
+                let p = self.pace[e];
+                let hidden = both_blind & self.lit[r];
+                let mut v = max_f32(self.stay[r] - SPURIOUS_BITS, jump);
+                for k in 1..=steps(hidden) {
                     let t = r + k;
-                    if t < nr {
-                        v = max_f32(v, self.emitted[t] - jump(k) + self.stay[t]);
+                    if t < nr && self.emitted[t] != NONE {
+                        if let Some(cost) = skip_cost(&self.missed, spare, hidden & self.lit[t], r, k) {
+                            v = max_f32(v, self.emitted[t] - cost - spacing_bits(gap, k, p) + self.stay[t]);
+                        }
                     }
                 }
                 self.after[e] = v;
@@ -336,16 +557,80 @@ fn emit(rank_bit: &[u8], (mask, gain): (u64, f32), r: usize) -> f32 {
     }
 }
 
-/// The cost of stepping `k` ranks from one labelled edge to the next (`k - 1` missed
-/// boundaries).
+/// Whether a labelling may jump to an edge with the compatible codes `mask` (of the
+/// pattern's `used` codes): its evidence must name at most [`JUMP_MAX_CODES`] of them.
 #[inline]
-fn jump(k: usize) -> f32 {
-    (k - 1) as f32 * MISSED_BITS
+fn jumpable(mask: u32, used: u32) -> bool {
+    (mask & used).count_ones() <= JUMP_MAX_CODES
+}
+
+/// How many ranks a step may cross when the channels `hidden` are unreadable at both of
+/// its edges by the surface's doing.
+#[inline]
+fn steps(hidden: u8) -> usize {
+    if hidden == 0 {
+        MAX_MISSED + 1
+    } else {
+        MAX_STEP
+    }
+}
+
+/// The cost of the boundaries a step from rank `r` to rank `r + k` skips, with the
+/// channels `hidden` unreadable at both its edges (`missed`, `spare` as in [`Aligner`]);
+/// `None` when the step is too long for what is hidden.
+#[inline]
+fn skip_cost(missed: &[f32], spare: usize, hidden: u8, r: usize, k: usize) -> Option<f32> {
+    if k > MAX_MISSED + 1 && hidden == 0 {
+        return None;
+    }
+    let row = &missed[hidden as usize * spare..(hidden as usize + 1) * spare];
+    Some(row[r + k] - row[r + 1])
+}
+
+/// The cost of a step of `k` ranks between two labelled edges `gap` pixels apart, at a
+/// running period estimate of `pace` pixels: the bits of the log-ratio of the gap to
+/// `k` periods under a Gaussian of [`SPACING_SPREAD`] and the two positions' noise, at
+/// most [`SPACING_CAP_BITS`].
+#[inline]
+fn spacing_bits(gap: f32, k: usize, pace: f32) -> f32 {
+    if pace == UNKNOWN_PACE {
+        return 0.0;
+    }
+    let expected = k as f32 * pace;
+    let ratio = max_f32(gap, 0.05) / expected;
+    // ln(ratio) by the series of the area hyperbolic tangent: 2 (x + x³/3 + x⁵/5) with
+    // x = (ratio - 1) / (ratio + 1), within 1 % of ln up to a ratio of 3 (beyond, the
+    // cost is capped anyway); no library call in WebAssembly.
+    let x = (ratio - 1.0) / (ratio + 1.0);
+    let x2 = x * x;
+    let ln = 2.0 * x * (1.0 + x2 * (1.0 / 3.0 + x2 * 0.2));
+    let noise = POSITION_NOISE * std::f32::consts::SQRT_2 / expected;
+    let var = SPACING_SPREAD * SPACING_SPREAD + noise * noise;
+    let bits = ln * ln / (2.0 * var) * std::f32::consts::LOG2_E;
+    if bits < SPACING_CAP_BITS {
+        bits
+    } else {
+        SPACING_CAP_BITS
+    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// `n` pseudo-random codes from the 26 boundary codes (no "unchanged"), from `seed`.
+    fn random_codes(seed: u32, n: usize) -> Vec<u8> {
+        let mut state = seed;
+        (0..n)
+            .map(|_| {
+                state ^= state << 13;
+                state ^= state >> 17;
+                state ^= state << 5;
+                let c = (state % 26) as u8;
+                if c >= 13 { c + 1 } else { c }
+            })
+            .collect()
+    }
 
     /// A run with one spurious edge, one missed boundary and one misread code is still
     /// labelled in order, the spurious edge left empty; no edge takes a wrong rank (the
@@ -354,35 +639,97 @@ mod tests {
     #[test]
     fn alignment_tolerates_insertions_deletions_and_misreads() {
         // Ranks 0..40 with pseudo-random codes from the 26 boundary codes.
-        let mut state = 0x2545_f491u32;
-        let codes: Vec<u8> = (0..40)
-            .map(|_| {
-                state ^= state << 13;
-                state ^= state >> 17;
-                state ^= state << 5;
-                let c = (state % 26) as u8;
-                if c >= 13 { c + 1 } else { c }
-            })
-            .collect();
-        let mut al = Aligner::new(codes.iter().copied());
+        let codes = random_codes(0x2545_f491, 40);
+        let mut al = Aligner::new(codes.iter().map(|&c| (c, 7)));
         let truth: Vec<i32> = (5..25).collect();
         let mut masks: Vec<u32> = truth.iter().map(|&r| 1u32 << codes[r as usize]).collect();
+        let mut positions: Vec<f32> = truth.iter().map(|&r| 7.0 * r as f32).collect();
         let mut expect: Vec<i32> = truth.clone();
         // Misread edge 4 (a code the true rank does not have).
         let wrong = (codes[truth[4] as usize] + 1) % 27;
         masks[4] = 1 << if wrong == 13 { 14 } else { wrong };
         // Drop the boundary of edge 10 (missed).
         masks.remove(10);
+        positions.remove(10);
         expect.remove(10);
         // A spurious edge with some exact code at 15.
         masks.insert(15, 1 << 0);
+        positions.insert(15, 0.5 * (positions[14] + positions[15]));
         expect.insert(15, -1);
         let mut out = vec![0; masks.len()];
-        al.align(&masks, &mut out);
+        al.align(RunInput { masks: &masks, positions: &positions, period: 7.0 }, &mut out);
         for (i, (&o, &e)) in out.iter().zip(&expect).enumerate() {
             assert!(o == e || (o == -1 && (i < 2 || i + 2 >= expect.len() || i.abs_diff(4) <= 1 || i.abs_diff(10) <= 1 || i.abs_diff(15) <= 1)), "edge {i}: {o} expected {e}; all {out:?}");
         }
         let labelled = out.iter().filter(|&&o| o >= 0).count();
         assert!(labelled >= 10, "only {labelled} labelled: {out:?}");
     }
+
+    /// On a saturated red dye only the boundaries where red changes make edges, and they
+    /// say nothing of green and blue: the spacing of the edges (how many boundaries lie
+    /// between them) identifies them, and no edge takes a wrong rank.
+    #[test]
+    fn one_readable_channel_is_identified_by_spacing() {
+        let mut state = 0x1234_5678u32;
+        let mut next = || {
+            state ^= state << 13;
+            state ^= state >> 17;
+            state ^= state << 5;
+            state
+        };
+        // Stripe colours with no two neighbours alike; boundary r lies between stripes
+        // r and r + 1.
+        let mut colours = vec![0u32];
+        while colours.len() < 121 {
+            let c = next() % 8;
+            if c != *colours.last().unwrap() {
+                colours.push(c);
+            }
+        }
+        let digit = |a: u32, b: u32, ch: u32| ((b >> ch) & 1) as i8 - ((a >> ch) & 1) as i8;
+        // A code's digits are red, green, blue in base 3, each shifted by one.
+        let code = |a: u32, b: u32| (0..3).fold(0, |c, ch| c * 3 + (digit(a, b, 2 - ch) + 1) as u8);
+        let codes: Vec<u8> = colours.windows(2).map(|w| code(w[0], w[1])).collect();
+        let mut al = Aligner::new(codes.iter().map(|&c| (c, 7)));
+        // A red dye over boundaries 30..90, stripes 7.3 pixels wide: an edge where red
+        // changes, its mask every code with that red step.
+        let (mut masks, mut positions, mut truth) = (vec![], vec![], vec![]);
+        for r in 30..90usize {
+            let red = digit(colours[r], colours[r + 1], 2);
+            if red != 0 {
+                let mask = (0..27u32).filter(|&c| c != 13 && (c / 9) as i8 - 1 == red).fold(0, |m, c| m | 1 << c);
+                masks.push(mask);
+                positions.push(7.3 * r as f32 + 0.2 * ((next() % 100) as f32 / 100.0 - 0.5));
+                truth.push(r as i32);
+            }
+        }
+        let mut out = vec![0; masks.len()];
+        al.align(RunInput { masks: &masks, positions: &positions, period: 7.0 }, &mut out);
+        for (i, (&o, &t)) in out.iter().zip(&truth).enumerate() {
+            assert!(o == t || o == -1, "edge {i}: rank {o}, truth {t}; all {out:?}");
+        }
+        let named = out.iter().filter(|&&o| o >= 0).count();
+        assert!(named * 2 >= masks.len(), "only {named} of {} edges identified: {out:?}", masks.len());
+    }
+
+    /// A depth discontinuity inside one run: the ranks jump from 30 to 60. The edges
+    /// beyond it take their true ranks (or none), never ranks carried on from before.
+    #[test]
+    fn a_jump_inside_a_run_is_followed() {
+        let codes = random_codes(0x0bad_5eed, 100);
+        let mut al = Aligner::new(codes.iter().map(|&c| (c, 7)));
+        let truth: Vec<i32> = (10..30).chain(60..80).collect();
+        let masks: Vec<u32> = truth.iter().map(|&r| 1u32 << codes[r as usize]).collect();
+        // The far surface's stripes are narrower (it is further away) and start right
+        // after the near one's.
+        let positions: Vec<f32> = truth.iter().map(|&r| if r < 30 { 7.0 * r as f32 } else { 210.0 + 5.0 * (r - 59) as f32 }).collect();
+        let mut out = vec![0; masks.len()];
+        al.align(RunInput { masks: &masks, positions: &positions, period: 7.0 }, &mut out);
+        for (i, (&o, &t)) in out.iter().zip(&truth).enumerate() {
+            assert!(o == t || o == -1, "edge {i}: rank {o}, truth {t}; all {out:?}");
+        }
+        let beyond = out[20..].iter().filter(|&&o| o >= 0).count();
+        assert!(beyond >= 15, "only {beyond} of 20 edges beyond the jump labelled: {out:?}");
+    }
 }
+

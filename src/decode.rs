@@ -20,7 +20,7 @@
 //! where only a partial window is visible), provided their own code matches the
 //! pattern's code for that boundary (is compatible with it).
 
-use crate::align::Aligner;
+use crate::align::{blind_channels, changed_channels, Aligner, RunInput, MAX_STEP};
 use crate::pattern::PatternSpec;
 use crate::segment::{for_line_chunks, pack, reverse, Code, CodeMask, Edge, ScanAxis, Segmentation, LINE_CHUNKS, NO_CODE};
 
@@ -60,6 +60,8 @@ pub struct Decoder {
     /// Pattern code of boundary j (between stripes j-1 and j), j in 0..=count;
     /// [`NO_CODE`] for the outer two unless the stripes leave a margin there.
     codes: Vec<Code>,
+    /// The channels (bit c) the projector lights on either side of boundary j.
+    lit: Vec<u8>,
     /// Boundary identities grow along the scan direction.
     increasing: bool,
     /// The codes some boundary of the pattern shows, as seen along the scan direction.
@@ -84,22 +86,26 @@ pub struct Decoder {
 struct RunAligner {
     aligner: Aligner,
     masks: Vec<u32>,
+    positions: Vec<f32>,
     ranks: Vec<i32>,
 }
 
 impl RunAligner {
     /// Identify every run of `edges` by its alignment to the pattern (see
     /// [`crate::align`]); `n_ranks` is the pattern's
-    /// number of boundaries, `increasing` whether identities grow along the line.
-    fn align_line(&mut self, edges: &mut [Edge], increasing: bool, n_ranks: i32) {
+    /// number of boundaries, `increasing` whether identities grow along the line,
+    /// `period` the expected stripe period along it.
+    fn align_line(&mut self, edges: &mut [Edge], increasing: bool, n_ranks: i32, period: f32) {
         let mut start = 0;
         while start < edges.len() {
             let run = edges[start].run;
             let end = start + edges[start..].iter().take_while(|e| e.run == run).count();
             self.masks.clear();
             self.masks.extend(edges[start..end].iter().map(|e| e.mask));
+            self.positions.clear();
+            self.positions.extend(edges[start..end].iter().map(|e| e.pos));
             self.ranks.resize(end - start, -1);
-            self.aligner.align(&self.masks, &mut self.ranks);
+            self.aligner.align(RunInput { masks: &self.masks, positions: &self.positions, period }, &mut self.ranks);
             for (e, &r) in edges[start..end].iter_mut().zip(&self.ranks) {
                 e.id = if r < 0 {
                     -1
@@ -138,19 +144,27 @@ impl Decoder {
             .filter(|&&c| c != NO_CODE)
             .map(|&c| if increasing { c } else { reverse(c) })
             .fold(0, |m: CodeMask, c| m | 1 << c);
+        // The channels the projector lights on either side of each boundary.
+        let lit: Vec<u8> = (0..=count as i64)
+            .map(|j| {
+                let (a, b) = (spec.stripe_color(family, j - 1), spec.stripe_color(family, j));
+                (0..3).filter(|&c| a[c] > 0.0 || b[c] > 0.0).fold(0, |m, c| m | 1 << c)
+            })
+            .collect();
         let n = codes.len();
         let rank_id = |r: usize| if increasing { r } else { n - 1 - r };
         let aligner = Aligner::new((0..n).map(|r| {
             let c = codes[rank_id(r)];
-            if increasing { c } else { reverse(c) }
+            (if increasing { c } else { reverse(c) }, lit[rank_id(r)])
         }));
         Decoder {
             codes,
+            lit,
             increasing,
             used_codes,
             smoothed: Vec::new(),
             line_start: Vec::new(),
-            aligners: vec![RunAligner { aligner, masks: Vec::new(), ranks: Vec::new() }; LINE_CHUNKS],
+            aligners: vec![RunAligner { aligner, masks: Vec::new(), positions: Vec::new(), ranks: Vec::new() }; LINE_CHUNKS],
             up: Vec::new(),
             down: Vec::new(),
             dropped: Vec::new(),
@@ -188,13 +202,14 @@ impl Decoder {
         self.increasing
     }
 
-    /// Identify the boundaries of every line of `seg` (sets `Edge::id`).
-    pub fn run(&mut self, seg: &mut Segmentation) {
+    /// Identify the boundaries of every line of `seg` (sets `Edge::id`); `period` is the
+    /// expected stripe period along the lines, pixels.
+    pub fn run(&mut self, seg: &mut Segmentation, period: f32) {
         // Each line is aligned on its own: natively, chunks of lines at once.
         let (n_ranks, increasing) = (self.codes.len() as i32, self.increasing);
         for_line_chunks(&mut seg.lines, &mut self.aligners, |_, lines, a| {
             for edges in lines {
-                a.align_line(edges, increasing, n_ranks);
+                a.align_line(edges, increasing, n_ranks, period);
             }
         });
         self.check_across_lines(seg);
@@ -335,8 +350,10 @@ impl Decoder {
     }
 
     /// The stripe coordinate (pattern units: boundary j at j) of every pixel that lies
-    /// between two identified, consecutive boundaries of the same run; NaN elsewhere.
-    /// Consecutive boundaries further apart than `max_width` pixels are not bridged.
+    /// between two identified boundaries of the same run, consecutive on the line and at
+    /// most [`MAX_STEP`] stripes apart in the pattern (boundaries between them showed no
+    /// edge); NaN elsewhere. A single stripe wider than `max_width` pixels is not
+    /// bridged, nor `k` stripes wider than `max_width · (k + 2) / 3`.
     pub fn stripe_coords_into(&self, seg: &Segmentation, width: usize, max_width: f32, out: &mut [f32]) {
         out.iter_mut().for_each(|q| *q = f32::NAN);
         let Some(axis) = seg.axis else { return };
@@ -344,14 +361,34 @@ impl Decoder {
         for (line, edges) in seg.lines.iter().enumerate() {
             for pair in edges.windows(2) {
                 let (a, b) = (pair[0], pair[1]);
-                if a.id < 0 || b.id != a.id + step || a.run != b.run || b.pos - a.pos > max_width || b.pos <= a.pos {
+                // Stripes between consecutive identities, and across boundaries the
+                // alignment skipped (on a saturated dye, those whose transition changes
+                // only channels it cannot read).
+                let stripes = (b.id - a.id) * step;
+                if a.id < 0 || b.id < 0 || !(1..=MAX_STEP as i32).contains(&stripes) || a.run != b.run || b.pos <= a.pos {
                     continue;
+                }
+                if b.pos - a.pos > max_width * (stripes + 2) as f32 / 3.0 {
+                    continue;
+                }
+                // Across skipped boundaries only where neither edge could have seen them:
+                // a visible boundary without an edge is more often a wrong identity.
+                if stripes > 1 {
+                    let lit = |j: i32| self.lit.get(j as usize).copied().unwrap_or(0);
+                    let blind = blind_channels(a.mask) & blind_channels(b.mask) & lit(a.id) & lit(b.id);
+                    let hidden = |j: i32| {
+                        let c = self.seen_code(j);
+                        c != NO_CODE && changed_channels(c) & !blind == 0
+                    };
+                    if !(1..stripes).all(|k| hidden(a.id + k * step)) {
+                        continue;
+                    }
                 }
                 let first = a.pos.ceil() as usize;
                 let mut s = first;
                 while (s as f32) < b.pos {
                     let t = (s as f32 - a.pos) / (b.pos - a.pos);
-                    out[axis_index(axis, line, s, width)] = a.id as f32 + step as f32 * t;
+                    out[axis_index(axis, line, s, width)] = a.id as f32 + (b.id - a.id) as f32 * t;
                     s += 1;
                 }
             }

@@ -231,6 +231,19 @@ pub struct FamilyPrediction {
     pub increasing: bool,
 }
 
+impl FamilyPrediction {
+    /// The stripe period along the family's scan lines, pixels: the period across the
+    /// stripes over the cosine of the angle between the lines and the stripes' normal
+    /// (at most 45 degrees, see [`ScanAxis::for_normal`]).
+    pub fn line_period(&self) -> f32 {
+        let along = match self.axis {
+            ScanAxis::Rows => self.angle.cos(),
+            ScanAxis::Columns => self.angle.sin(),
+        };
+        self.period / along.abs().max(std::f32::consts::FRAC_1_SQRT_2)
+    }
+}
+
 /// Predict each family's appearance in the camera at the rig's working distance: the
 /// depth where the projector's optical axis passes closest to the camera's.
 pub fn predict_families(spec: &PatternSpec, calib: &Calibration) -> Result<Vec<FamilyPrediction>> {
@@ -476,7 +489,7 @@ impl Scanner {
             }
             seg.run(restored, linear, flags, pred.axis, pred.period);
             ms[0] = clock.split();
-            decoder.run(seg);
+            decoder.run(seg, pred.line_period());
             decoder.smooth_positions(seg);
             decoder.stripe_coords_into(seg, w, MAX_STRIPE_PERIODS * pred.period, coords);
             ms[1] = clock.split();
