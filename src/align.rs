@@ -368,7 +368,9 @@ impl Aligner {
                         reach[t] = s;
                         let seen = gap / k as f32;
                         let next = if p == UNKNOWN_PACE { seen } else { p + PACE_UPDATE * (seen - p) };
-                        reach_pace[t] = next.clamp(pace_range.0, pace_range.1);
+                        // max then min, not clamp: a caller's period of 0 or less
+                        // must not panic.
+                        reach_pace[t] = next.max(pace_range.0).min(pace_range.1);
                     }
                     if t < nr {
                         cand[t / 64] |= 1 << (t % 64);
@@ -376,10 +378,9 @@ impl Aligner {
                 }
             }
             // A labelling may start here after nothing, or after a jump from the best
-            // labelling so far where the edge's evidence is specific enough.
-            // A jump is looked for only where the best labelling so far cannot take the
-            // edge in a short step (what a discontinuity looks like; elsewhere the
-            // candidates stay those of the steps).
+            // labelling so far: only where the edge's evidence is specific and that
+            // labelling cannot take the edge in a short step (what a discontinuity
+            // looks like; elsewhere the candidates stay those of the steps).
             let explained = prev_best != u32::MAX
                 && (1..=MAX_MISSED + 1).any(|k| {
                     let t = prev_best as usize + k;
