@@ -110,10 +110,14 @@ pub const ACCEPT_BITS: f32 = 12.0;
 pub const SPURIOUS_MARGIN_BITS: f32 = 3.0;
 
 /// How far below an edge's best prefix score a rank may be and still be carried on,
-/// bits: more than [`ACCEPT_BITS`], so that what is dropped could rarely have changed
-/// a decision. At twice [`ACCEPT_BITS`] the simulated scenes decoded the same (mean
-/// coverage 74.5 %, outliers 0.79 % against 0.80 %) with a quarter more work.
-pub const BEAM_BITS: f32 = ACCEPT_BITS + 4.0;
+/// bits. Measured on the simulated scenes (the 16 rows of [`ACCEPT_BITS`], mean
+/// coverage / outliers, decoding ms per family of `examples/bench_frame`): 16 bits
+/// 79.5 % / 0.62 %, 38 ms; 14 bits 79.5 % / 0.63 %, 30 ms; 12 bits 79.8 % / 0.64 %,
+/// 26 ms; 10 bits 77.7 % / 0.69 %, 22 ms. Below 14 bits the occluders under the
+/// `world` condition (`eval --hard`) gain outliers (0.71 % to 0.90 % at 13 bits): the
+/// labellings beyond a depth edge start behind the best. Keeping at most the best 12
+/// or 16 labels of an edge instead lost a point of coverage for the same time.
+pub const BEAM_BITS: f32 = ACCEPT_BITS + 2.0;
 
 use crate::num::max_f32;
 
@@ -363,7 +367,10 @@ impl Aligner {
                 for k in 1..=steps(hidden) {
                     let t = r + k;
                     let Some(cost) = skip_cost(missed, spare, hidden & lit[t], r, k) else { continue };
-                    let s = v - cost - spacing_bits(gap, k, p);
+                    // The spacing's cost only lowers a score: skipped where the step
+                    // cannot beat what reaches `t` already.
+                    let base = v - cost;
+                    let s = if base > reach[t] { base - spacing_bits(gap, k, p) } else { NONE };
                     if s > reach[t] {
                         reach[t] = s;
                         let seen = gap / k as f32;
@@ -491,7 +498,10 @@ impl Aligner {
                     let t = r + k;
                     if t < nr && self.emitted[t] != NONE {
                         if let Some(cost) = skip_cost(&self.missed, spare, hidden & self.lit[t], r, k) {
-                            v = max_f32(v, self.emitted[t] - cost - spacing_bits(gap, k, p) + self.stay[t]);
+                            let base = self.emitted[t] - cost + self.stay[t];
+                            if base > v {
+                                v = max_f32(v, base - spacing_bits(gap, k, p));
+                            }
                         }
                     }
                 }
@@ -598,16 +608,21 @@ fn spacing_bits(gap: f32, k: usize, pace: f32) -> f32 {
         return 0.0;
     }
     let expected = k as f32 * pace;
-    let ratio = max_f32(gap, 0.05) / expected;
-    // ln(ratio) by the series of the area hyperbolic tangent: 2 (x + x³/3 + x⁵/5) with
-    // x = (ratio - 1) / (ratio + 1), within 1 % of ln up to a ratio of 3 (beyond, the
-    // cost is capped anyway); no library call in WebAssembly.
-    let x = (ratio - 1.0) / (ratio + 1.0);
-    let x2 = x * x;
-    let ln = 2.0 * x * (1.0 + x2 * (1.0 / 3.0 + x2 * 0.2));
-    let noise = POSITION_NOISE * std::f32::consts::SQRT_2 / expected;
-    let var = SPACING_SPREAD * SPACING_SPREAD + noise * noise;
-    let bits = ln * ln / (2.0 * var) * std::f32::consts::LOG2_E;
+    let gap = max_f32(gap, 0.05);
+    // ln(gap / expected) by the series of the area hyperbolic tangent: 2 (x + x³/3 +
+    // x⁵/5) with x = (gap - expected) / (gap + expected), within 1 % of ln up to a ratio
+    // of 3 (beyond, the cost is capped anyway); no library call in WebAssembly. The
+    // log-ratio's variance is SPREAD² + 2 NOISE² / expected², so with
+    // `scaled = SPREAD² expected² + 2 NOISE²` the bits are
+    // ln² expected² / (2 scaled) log2 e; `q` gives x² and the bits with one division.
+    let e2 = expected * expected;
+    let scaled = SPACING_SPREAD * SPACING_SPREAD * e2 + 2.0 * POSITION_NOISE * POSITION_NOISE;
+    let (d, sum) = (gap - expected, gap + expected);
+    let q = 1.0 / (sum * sum * scaled);
+    let d2 = d * d;
+    let x2 = d2 * scaled * q;
+    let poly = 1.0 + x2 * (1.0 / 3.0 + x2 * 0.2);
+    let bits = 2.0 * d2 * poly * poly * e2 * q * std::f32::consts::LOG2_E;
     if bits < SPACING_CAP_BITS {
         bits
     } else {
