@@ -55,13 +55,18 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let direct = ms_per_run(21, || {
             let _ = scanner.scan(&frame);
         });
+        let stages = |scanner: &Scanner| -> String {
+            let parts: Vec<String> = scanner.result().stats.stage_ms.iter().map(|(n, ms)| format!("{n} {ms:.1}")).collect();
+            parts.join(", ")
+        };
+        let direct_stages = stages(&scanner);
         scanner.set_filter(FilterMode::LogGrad);
         let loggrad = ms_per_run(21, || {
             let _ = scanner.scan(&frame);
         });
         println!("| {directions} | {slow:.0} ms | {fast:.1} ms | {direct:.1} ms | {loggrad:.1} ms |");
-        let stages: Vec<String> = scanner.result().stats.stage_ms.iter().map(|(n, ms)| format!("{n} {ms:.1}")).collect();
-        eprintln!("  last loggrad scan by stage (ms): {}", stages.join(", "));
+        eprintln!("  last direct scan by stage (ms): {direct_stages}");
+        eprintln!("  last loggrad scan by stage (ms): {}", stages(&scanner));
     }
     Ok(())
 }
