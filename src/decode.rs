@@ -20,9 +20,10 @@
 //! where only a partial window is visible), provided their own code matches the
 //! pattern's code for that boundary (is compatible with it).
 
+use crate::num::max_f32;
 use crate::align::{blind_channels, changed_channels, Aligner, RunInput, MAX_STEP};
 use crate::pattern::PatternSpec;
-use crate::segment::{for_line_chunks, pack, reverse, Code, CodeMask, Edge, ScanAxis, Segmentation, LINE_CHUNKS, NO_CODE};
+use crate::segment::{for_line_chunks, pack, reverse, Code, CodeMask, Edge, ScanAxis, Segmentation, DARK_LEVEL, LINE_CHUNKS, NO_CODE};
 
 /// Largest distance between a boundary and its continuation on the next scan line,
 /// pixels. Scan lines are at most 45 degrees from across the stripes, so a boundary
@@ -62,6 +63,9 @@ pub struct Decoder {
     codes: Vec<Code>,
     /// The channels (bit c) the projector lights on either side of boundary j.
     lit: Vec<u8>,
+    /// The projector's colour of stripe j (between boundaries j and j + 1) at `j + 1`,
+    /// j in -1..=count (the background beyond either end).
+    colors: Vec<[f32; 3]>,
     /// Boundary identities grow along the scan direction.
     increasing: bool,
     /// The codes some boundary of the pattern shows, as seen along the scan direction.
@@ -151,6 +155,7 @@ impl Decoder {
                 (0..3).filter(|&c| a[c] > 0.0 || b[c] > 0.0).fold(0, |m, c| m | 1 << c)
             })
             .collect();
+        let colors = (-1..=count as i64).map(|j| spec.stripe_color(family, j).map(|v| v as f32)).collect();
         let n = codes.len();
         let rank_id = |r: usize| if increasing { r } else { n - 1 - r };
         let aligner = Aligner::new((0..n).map(|r| {
@@ -160,6 +165,7 @@ impl Decoder {
         Decoder {
             codes,
             lit,
+            colors,
             increasing,
             used_codes,
             smoothed: Vec::new(),
@@ -353,11 +359,17 @@ impl Decoder {
     /// between two identified boundaries of the same run, consecutive on the line and at
     /// most [`MAX_STEP`] stripes apart in the pattern (boundaries between them showed no
     /// edge); NaN elsewhere. A single stripe wider than `max_width` pixels is not
-    /// bridged, nor `k` stripes wider than `max_width · (k + 2) / 3`.
-    pub fn stripe_coords_into(&self, seg: &Segmentation, width: usize, max_width: f32, out: &mut [f32]) {
+    /// bridged, nor `k` stripes wider than `max_width · (k + 2) / 3`, nor stripes with a
+    /// pixel inside them lit less than [`SHADOW_SHARE`] of their ends (`linear`, the
+    /// frame's linear colour).
+    pub fn stripe_coords_into(&self, seg: &Segmentation, linear: &[[f32; 3]], width: usize, max_width: f32, out: &mut [f32]) {
         out.iter_mut().for_each(|q| *q = f32::NAN);
         let Some(axis) = seg.axis else { return };
         let step = if self.increasing { 1 } else { -1 };
+        let line_len = match axis {
+            ScanAxis::Rows => width,
+            ScanAxis::Columns => linear.len() / width.max(1),
+        };
         for (line, edges) in seg.lines.iter().enumerate() {
             for pair in edges.windows(2) {
                 let (a, b) = (pair[0], pair[1]);
@@ -368,7 +380,7 @@ impl Decoder {
                 if a.id < 0 || b.id < 0 || !(1..=MAX_STEP as i32).contains(&stripes) || a.run != b.run || b.pos <= a.pos {
                     continue;
                 }
-                if b.pos - a.pos > max_width * (stripes + 2) as f32 / 3.0 {
+                        if b.pos - a.pos > max_width * (stripes + 2) as f32 / 3.0 {
                     continue;
                 }
                 // Across skipped boundaries only where neither edge could have seen them:
@@ -384,6 +396,10 @@ impl Decoder {
                         continue;
                     }
                 }
+                let index = |s: usize| axis_index(axis, line, s, width);
+                if !lit_between(linear, index, a.pos, b.pos) || (stripes == 1 && self.shadowed(linear, index, line_len, max_width / 3.0, &a, &b)) {
+                    continue;
+                }
                 let first = a.pos.ceil() as usize;
                 let mut s = first;
                 while (s as f32) < b.pos {
@@ -394,6 +410,89 @@ impl Decoder {
             }
         }
     }
+}
+
+impl Decoder {
+    /// The projector's colour of stripe `j` (the background beyond the pattern).
+    fn stripe_color(&self, j: i32) -> [f32; 3] {
+        let i = (j + 1).clamp(0, self.colors.len() as i32 - 1) as usize;
+        self.colors.get(i).copied().unwrap_or([0.0; 3])
+    }
+
+    /// Whether the stripe between the consecutive identified boundaries `a` and `b`
+    /// (one stripe apart) is darker than the pattern can make it beside a neighbour:
+    /// in every channel, its light relative to the middle of the stripe beyond either
+    /// boundary (`period` pixels wide) is under [`NEIGHBOUR_SHARE`] of what the
+    /// projector's colours give (with [`COLOR_FLOOR`] for the colour mixing and the
+    /// room's light). A cast shadow or an unlit gap is bounded by two edges that the
+    /// alignment can take for a stripe's (under 25-pixel stripes a 60-pixel shadow was
+    /// bridged as one stripe); the test fails only where the surface's albedo drops
+    /// to under half in every channel from one stripe to the next. `line_len` is the
+    /// line's length, `index` maps a position on it to a pixel.
+    fn shadowed(&self, linear: &[[f32; 3]], index: impl Fn(usize) -> usize, line_len: usize, period: f32, a: &Edge, b: &Edge) -> bool {
+        let (lo, hi) = ((a.pos + 1.0).ceil(), (b.pos - 1.0).floor());
+        if hi < lo || lo < 0.0 {
+            return false;
+        }
+        let pixel = |s: usize| linear.get(index(s)).copied().unwrap_or([0.0; 3]);
+        let (lo, hi) = (lo as usize, (hi as usize).min(line_len.saturating_sub(1)));
+        let mut inside = [0f32; 3];
+        for s in lo..=hi {
+            let p = pixel(s);
+            (0..3).for_each(|c| inside[c] += p[c]);
+        }
+        let n = (hi + 1).saturating_sub(lo).max(1) as f32;
+        let inside = inside.map(|v| v / n);
+        let color = self.stripe_color(a.id.min(b.id));
+        let (beyond_a, beyond_b) = if self.increasing { (a.id - 1, b.id) } else { (a.id, b.id - 1) };
+        // The middle of each neighbouring stripe (the blur of the boundary is in the
+        // pixel beside it).
+        let out = max_f32(1.5, 0.5 * period);
+        let before = (a.pos - out).round();
+        let after = (b.pos + out).round();
+        let neighbours = [(before >= 0.0).then(|| (pixel(before as usize), beyond_a)), ((after as usize) < line_len).then(|| (pixel(after as usize), beyond_b))];
+        let darker = |(light, j): ([f32; 3], i32)| {
+            let other = self.stripe_color(j);
+            (0..3).all(|c| {
+                let seen = (inside[c] + DARK_LEVEL) / (light[c] + DARK_LEVEL);
+                let expected = (color[c] + COLOR_FLOOR) / (other[c] + COLOR_FLOOR);
+                seen < NEIGHBOUR_SHARE * expected
+            })
+        };
+        neighbours.iter().flatten().any(|&n| darker(n))
+    }
+}
+
+/// What the colour mixing and the room's light add to a projector colour channel (full
+/// scale 1) when comparing the light of neighbouring stripes (see
+/// `Decoder::shadowed`).
+pub const COLOR_FLOOR: f32 = 0.1;
+
+/// Share of the light the pattern's colours give a stripe beside its neighbour below
+/// which the stripe is taken for a shadow (see `Decoder::shadowed`).
+pub const NEIGHBOUR_SHARE: f32 = 0.5;
+
+/// Share of the light at a stripe's ends below which a pixel inside it is taken for a
+/// shadow or the edge of the projector's light: an ambient-lit gap between two
+/// boundaries shows no edge, and without this test wide stripes (25 camera pixels)
+/// were bridged across cast shadows of up to three periods. Inside one stripe the
+/// projector's colour is the same, so only the surface's albedo changes the light, and
+/// a drop to under a quarter is rare on the simulated scenes' textures.
+pub const SHADOW_SHARE: f32 = 0.25;
+
+/// Whether every pixel strictly inside the span from `a` to `b` (a pixel's margin from
+/// each, for the blur of the boundaries) is lit at least [`SHADOW_SHARE`] of the
+/// brighter end of the span (an end can be in the shadow already), by the sum of its linear channels; `index` maps a position
+/// on the line to a pixel.
+fn lit_between(linear: &[[f32; 3]], index: impl Fn(usize) -> usize, a: f32, b: f32) -> bool {
+    let (lo, hi) = ((a + 1.0).ceil(), (b - 1.0).floor());
+    if hi <= lo || lo < 0.0 {
+        return true;
+    }
+    let light = |s: usize| linear.get(index(s)).map_or(0.0, |p| p[0] + p[1] + p[2]);
+    let (lo, hi) = (lo as usize, hi as usize);
+    let floor = SHADOW_SHARE * light(lo).max(light(hi));
+    (lo + 1..hi).all(|s| light(s) >= floor)
 }
 
 #[inline]

@@ -491,7 +491,7 @@ impl Scanner {
             ms[0] = clock.split();
             decoder.run(seg, pred.line_period());
             decoder.smooth_positions(seg);
-            decoder.stripe_coords_into(seg, w, MAX_STRIPE_PERIODS * pred.period, coords);
+            decoder.stripe_coords_into(seg, linear, w, MAX_STRIPE_PERIODS * pred.period, coords);
             ms[1] = clock.split();
             triangulator.family_depth_into(k, coords, depth.pixels_mut(), weights);
             ms[2] = clock.split();
