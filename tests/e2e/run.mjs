@@ -50,7 +50,7 @@ const FIXTURE = 'tests/e2e/fixtures/textured-2dir.png';
 const FIXTURE_SCENE = { name: 'textured', seed: 7 };
 const SCREENSHOTS = join(ROOT, 'tests/screenshots');
 /** The whole run, start to end, including Chromium's start-up (check 15 takes most). */
-const TOTAL_LIMIT_MS = 10 * 60_000;
+const TOTAL_LIMIT_MS = 15 * 60_000;
 /** One check. */
 const CHECK_LIMIT_MS = 120_000;
 /** Check 2 measures continuous scanning over at least this long and this many clouds
@@ -58,11 +58,13 @@ const CHECK_LIMIT_MS = 120_000;
 const LIVE_MEASURE_MS = 4000;
 const LIVE_MEASURE_FRAMES = 4;
 /** Check 15: frames decoded in all, the first of them a warm-up (scanners built, buffers
- * grown), and a limit against a hang, not a speed: the run takes about 4 minutes at the
- * 4 frames per second this machine gives while others compile, under 2 when it is idle. */
+ * grown), and a limit against a hang, not a speed (issue 12's rates are measured by
+ * check 2 and the benchmarks): the run takes about 4 minutes at 4 frames per second,
+ * and about 5.5 at the 3.1 a loaded machine gave on 2026-12-03 with the spacing-aware
+ * alignment, which ran past the 6 minutes this limit was. */
 const LONG_RUN_FRAMES = 1000;
 const WARM_UP_FRAMES = 20;
-const LONG_RUN_LIMIT_MS = 6 * 60_000;
+const LONG_RUN_LIMIT_MS = 10 * 60_000;
 /**
  * The fake webcam delivers the frame through 4:2:0 YCbCr, as real webcams do: chroma at
  * half resolution in both directions (a 6.5-pixel stripe keeps about 3 chroma samples)
