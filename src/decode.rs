@@ -360,8 +360,9 @@ impl Decoder {
     /// most [`MAX_STEP`] stripes apart in the pattern (boundaries between them showed no
     /// edge); NaN elsewhere. A single stripe wider than `max_width` pixels is not
     /// bridged, nor `k` stripes wider than `max_width · (k + 2) / 3`, nor stripes with a
-    /// pixel inside them lit less than [`SHADOW_SHARE`] of their ends (`linear`, the
-    /// frame's linear colour).
+    /// pixel inside them lit less than [`SHADOW_SHARE`] of their ends, nor a single
+    /// stripe darker than the pattern allows beside a neighbour (`Decoder::shadowed`;
+    /// `linear`, the frame's linear colour).
     pub fn stripe_coords_into(&self, seg: &Segmentation, linear: &[[f32; 3]], width: usize, max_width: f32, out: &mut [f32]) {
         out.iter_mut().for_each(|q| *q = f32::NAN);
         let Some(axis) = seg.axis else { return };
@@ -380,7 +381,7 @@ impl Decoder {
                 if a.id < 0 || b.id < 0 || !(1..=MAX_STEP as i32).contains(&stripes) || a.run != b.run || b.pos <= a.pos {
                     continue;
                 }
-                        if b.pos - a.pos > max_width * (stripes + 2) as f32 / 3.0 {
+                if b.pos - a.pos > max_width * (stripes + 2) as f32 / 3.0 {
                     continue;
                 }
                 // Across skipped boundaries only where neither edge could have seen them:
@@ -482,8 +483,8 @@ pub const SHADOW_SHARE: f32 = 0.25;
 
 /// Whether every pixel strictly inside the span from `a` to `b` (a pixel's margin from
 /// each, for the blur of the boundaries) is lit at least [`SHADOW_SHARE`] of the
-/// brighter end of the span (an end can be in the shadow already), by the sum of its linear channels; `index` maps a position
-/// on the line to a pixel.
+/// brighter end of the span (an end can be in the shadow already), by the sum of its
+/// linear channels; `index` maps a position on the line to a pixel.
 fn lit_between(linear: &[[f32; 3]], index: impl Fn(usize) -> usize, a: f32, b: f32) -> bool {
     let (lo, hi) = ((a + 1.0).ceil(), (b - 1.0).floor());
     if hi <= lo || lo < 0.0 {
