@@ -15,7 +15,7 @@ use crate::filter::{smooth_along_stripes, FamilyWindow, FilterMode, LogGradFilte
 use crate::merge;
 use crate::pattern::PatternSpec;
 use crate::raster::{detect_chroma_pairs, gamma_lut, interpolate_chroma_into, rgb8_pixels_to_linear, rgba8_into, ChromaPairs, Image, Rgb};
-use crate::segment::{pixel_flags_into, PixelFlags, ScanAxis, Segmentation};
+use crate::segment::{pixel_flags_into, refine_with_luma, LumaEncoder, PixelFlags, ScanAxis, Segmentation};
 use crate::stages::{Stage, StageInputs};
 use crate::triangulate::Triangulator;
 use glam::DVec3;
@@ -171,6 +171,9 @@ pub struct Scanner {
     width: usize,
     height: usize,
     lut: [f32; 256],
+    /// The inverse of `lut`, for the luma refinement of frames with half-resolution
+    /// chroma.
+    luma_encoder: LumaEncoder,
     /// Inverse of the crosstalk matrix, `None` for the identity.
     unmix: Option<glam::Mat3>,
     /// Inputs of the last frame and the stages' working buffers, kept for
@@ -338,6 +341,7 @@ impl Scanner {
             .collect();
         let n = spec.families.len();
         let lut = gamma_lut(config.camera_gamma);
+        let luma_encoder = LumaEncoder::new(config.camera_gamma);
         let decoders = predictions.iter().enumerate().map(|(k, p)| Decoder::new(&spec, k, p.increasing)).collect();
         let triangulator = Triangulator::new(&calib, &spec);
         let plane = || vec![f32::NAN; w * h];
@@ -370,6 +374,7 @@ impl Scanner {
             width: w,
             height: h,
             lut,
+            luma_encoder,
             unmix,
             windows,
             predictions,
@@ -478,6 +483,9 @@ impl Scanner {
             &'a mut Restored,
             (&'a mut Segmentation, (&'a mut Decoder, (&'a mut Vec<f32>, (&'a mut Vec<f32>, (&'a mut Image<f32>, (&'a mut Vec<f32>, &'a mut [f64; 4])))))),
         );
+        // Half-resolution chroma: the boundaries are refined with the frame's own luma.
+        let luma_refine = pairs != ChromaPairs::default();
+        let luma_encoder = &self.luma_encoder;
         let family = |(k, (restored, (seg, (decoder, (coords, (weights, (depth, (scratch, ms)))))))): (usize, FamilyParts)| {
             let mut clock = StageClock::start(clock_fn);
             let pred = predictions[k];
@@ -488,6 +496,9 @@ impl Scanner {
                 smooth_along_stripes(restored, periods[k], scratch);
             }
             seg.run(restored, linear, flags, pred.axis, pred.period);
+            if luma_refine {
+                refine_with_luma(seg, colour.pixels(), w, lut, luma_encoder, pred.period);
+            }
             ms[0] = clock.split();
             decoder.run(seg, pred.line_period());
             decoder.smooth_positions(seg);
