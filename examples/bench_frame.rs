@@ -1,5 +1,6 @@
-//! One two-direction `loggrad` scan of the simulator's sphere (VGA), repeated `N` times
-//! (default 100): milliseconds per frame and each stage's fastest time over the frames. Small enough to
+//! One two-direction `loggrad` scan of a simulated VGA scene (`SCENE`, default the
+//! sphere; noise seed `SEED`, default 1; `WEBCAM=1` delivers it as a webcam does, 4:2:0
+//! chroma and JPEG at quality 80), repeated `N` times (default 100): milliseconds per frame and each stage's fastest time over the frames. Small enough to
 //! run under a profiler; under callgrind its instruction count per frame is the same
 //! however loaded the machine is:
 //!
@@ -14,8 +15,20 @@ use stripelight::{Calibration, PatternSpec};
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let calib = Calibration::demo();
     let spec = PatternSpec::generate(2, 1024, 768, DEFAULT_STRIPE_WIDTH)?;
-    let cfg = SimConfig { seed: 1, projector_gamma: spec.encoding_gamma as f32, ..SimConfig::default() };
-    let frame = sim::render(&Scene::builtin("sphere")?, &calib, &spec.render_rgb8(), &cfg)?.image;
+    let scene = std::env::var("SCENE").unwrap_or_else(|_| "sphere".into());
+    let seed: u64 = match std::env::var("SEED") {
+        Ok(s) => s.parse().map_err(|_| format!("SEED must be a number, got {s:?}"))?,
+        Err(_) => 1,
+    };
+    let webcam = std::env::var("WEBCAM").is_ok_and(|v| v == "1");
+    let cfg = SimConfig {
+        seed,
+        projector_gamma: spec.encoding_gamma as f32,
+        chroma_420: webcam,
+        jpeg_quality: webcam.then_some(80),
+        ..SimConfig::default()
+    };
+    let frame = sim::render(&Scene::builtin(&scene)?, &calib, &spec.render_rgb8(), &cfg)?.image;
     let mut scanner = Scanner::new(spec, calib, ScanConfig { crosstalk: cfg.crosstalk, ..ScanConfig::default() })?;
     let runs: usize = match std::env::var("N") {
         Ok(n) => n.parse().map_err(|_| format!("N must be a count, got {n:?}"))?,

@@ -653,7 +653,8 @@ impl LumaEncoder {
     #[inline]
     pub fn encode(&self, v: f32) -> f32 {
         let x = v.clamp(0.0, 1.0).sqrt() * Self::STEPS as f32;
-        let k = (x as usize).min(Self::STEPS - 1);
+        // Through i32: a cheaper conversion than to usize, and x is at most STEPS.
+        let k = (x as i32 as usize).min(Self::STEPS - 1);
         let t = x - k as f32;
         self.table[k] + t * (self.table[k + 1] - self.table[k])
     }
@@ -661,7 +662,7 @@ impl LumaEncoder {
 
 /// Points of the luma curve across an edge in [`refine_with_luma`] (an odd count, so
 /// that the middle is one).
-const LUMA_CURVE_POINTS: usize = 9;
+const LUMA_CURVE_POINTS: usize = 5;
 
 /// How far across an edge (0 to 1) the luma `y` is, on the `curve` of
 /// [`refine_with_luma`] (piecewise straight): the solution nearest the middle, walking
@@ -773,10 +774,11 @@ pub fn refine_with_luma(
                 continue;
             }
             // The luma along the blurred edge, as a function of how far across it the
-            // linear light is (0 before, 1 after), in eighths; it must be monotonic
-            // over the middle three quarters to be read back.
+            // linear light is (0 before, 1 after), in steps of 1 / (LUMA_CURVE_POINTS
+            // - 1); it must be monotonic over the middle steps to be read back.
             let mut curve = [0f32; LUMA_CURVE_POINTS];
-            for (k, y) in curve.iter_mut().enumerate() {
+            (curve[0], curve[LUMA_CURVE_POINTS - 1]) = (ya, yb);
+            for (k, y) in curve.iter_mut().enumerate().take(LUMA_CURVE_POINTS - 1).skip(1) {
                 let t = k as f32 / (LUMA_CURVE_POINTS - 1) as f32;
                 *y = encoded_luma([0, 1, 2].map(|ch| before[ch] + t * (after[ch] - before[ch])));
             }
