@@ -11,7 +11,8 @@
 /// }
 /// ```
 ///
-/// A file that uses it also says `wasm_bindgen_test_configure!(run_in_browser)` once.
+/// A file that uses it also says `wasm_bindgen_test_configure!(run_in_browser)` (or
+/// `run_in_dedicated_worker`) once.
 macro_rules! both_targets {
     ($($(#[$meta:meta])* fn $name:ident() $body:block)*) => {
         $(
