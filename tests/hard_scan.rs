@@ -19,18 +19,20 @@ use stripelight::eval::hard::{condition, HardEval};
 
 /// (scene, condition, coverage measured, outliers measured), shares of 1.
 const MEASURED: &[(&str, &str, f64, f64)] = &[
-    ("colorchecker", "default", 0.8317, 0.0039),
-    ("sphere-dye", "default", 0.7949, 0.0031),
-    ("paper-dye", "default", 0.7368, 0.0152),
-    ("bag", "default", 0.5346, 0.0033),
-    ("paper", "webcam", 0.9353, 0.0123),
-    ("skin", "clipped", 0.9336, 0.0044),
+    ("colorchecker", "default", 0.8286, 0.0032),
+    ("sphere-dye", "default", 0.7960, 0.0030),
+    ("paper-dye", "default", 0.7371, 0.0123),
+    ("bag", "default", 0.5355, 0.0033),
+    // 4:2:0 and JPEG: 1.23 % outliers before the boundaries were refined with the
+    // frame's luma (and a chain's one thrown position mended).
+    ("paper", "webcam", 0.9375, 0.0100),
+    ("skin", "clipped", 0.9330, 0.0040),
     ("wall", "partial", 0.9974, 0.0014),
-    ("occluders", "world", 0.9055, 0.0071),
+    ("occluders", "world", 0.9057, 0.0069),
     // 25-pixel stripes: a cast shadow between two stripes' edges was bridged as one
     // stripe (15.8 % outliers before the decoder compared a stripe's light with its
     // neighbours').
-    ("occluders", "wide", 0.8549, 0.0559),
+    ("occluders", "wide", 0.8549, 0.0560),
 ];
 
 both_targets! {
