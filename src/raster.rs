@@ -216,10 +216,14 @@ pub fn to_ycbcr(p: [u8; 3]) -> [f32; 3] {
 }
 
 /// The inverse of [`to_ycbcr`], rounded and clamped to 8 bits.
+#[inline]
 pub fn from_ycbcr(y: f32, cb: f32, cr: f32) -> [u8; 3] {
     let (cb, cr) = (cb - 128.0, cr - 128.0);
     let rgb = [y + 1.402 * cr, y - 0.344_136 * cb - 0.714_136 * cr, y + 1.772 * cb];
-    rgb.map(|x| x.round().clamp(0.0, 255.0) as u8)
+    // Clamped, then rounded half up by truncation: the same as rounding first (but
+    // within a float's step of a half), without `round` (a library call in
+    // WebAssembly).
+    rgb.map(|x| (x.clamp(0.0, 255.0) + 0.5) as u8)
 }
 
 /// How a frame's colour was sampled: per axis, whether the chroma comes in pairs of
@@ -340,10 +344,14 @@ pub fn interpolate_chroma_into(
 ) {
     let (w, h) = frame.size();
     debug_assert_eq!(out.size(), (w, h));
+    if w == 0 || h == 0 {
+        return;
+    }
     let (sx, sy) = (1 + pairs.horizontal as usize, 1 + pairs.vertical as usize);
     let (bw, bh) = (w.div_ceil(sx), h.div_ceil(sy));
     blocks.clear();
-    blocks.resize(bw * bh, [0.0; 2]);
+    // The blocks, then one row of them mixed down the columns.
+    blocks.resize(bw * bh + bw, [0.0; 2]);
     for by in 0..bh {
         for bx in 0..bw {
             let (mut sum, mut n) = ([0f32; 2], 0f32);
@@ -372,15 +380,73 @@ pub fn interpolate_chroma_into(
     // Weights of the own and the neighbouring block along an axis.
     let weights = |s: usize| if s == 1 { (1.0, 0.0) } else { (0.75f32, 0.25f32) };
     let ((ox, nx), (oy, ny)) = (weights(sx), weights(sy));
-    for v in 0..h {
-        let (by, bn) = (v / sy, neighbour(v, v / sy, sy, bh));
-        for u in 0..w {
-            let (bx, bm) = (u / sx, neighbour(u, u / sx, sx, bw));
-            let at = |x: usize, y: usize| blocks[y * bw + x];
-            let (a, b, c, d) = (at(bx, by), at(bm, by), at(bx, bn), at(bm, bn));
-            let mix = |k: usize| oy * (ox * a[k] + nx * b[k]) + ny * (ox * c[k] + nx * d[k]);
-            let luma = to_ycbcr(frame.get(u, v))[0];
-            *out.get_mut(u, v) = from_ycbcr(luma, mix(0), mix(1));
+    // Each row: the blocks' chroma mixed down the columns once (after the blocks, in
+    // the same scratch), then across for each pixel.
+    let (blocks, column_mix) = blocks.split_at_mut(bw * bh);
+    for ((v, row), out_row) in frame.pixels().chunks_exact(w).enumerate().zip(out.pixels_mut().chunks_exact_mut(w)) {
+        let (own, next) = (&blocks[v / sy * bw..][..bw], &blocks[neighbour(v, v / sy, sy, bh) * bw..][..bw]);
+        for ((m, a), c) in column_mix.iter_mut().zip(own).zip(next) {
+            *m = [oy * a[0] + ny * c[0], oy * a[1] + ny * c[1]];
+        }
+        for (u, (&p, o)) in row.iter().zip(out_row.iter_mut()).enumerate() {
+            let (a, b) = (column_mix[u / sx], column_mix[neighbour(u, u / sx, sx, bw)]);
+            let luma = 0.299 * p[0] as f32 + 0.587 * p[1] as f32 + 0.114 * p[2] as f32;
+            *o = from_ycbcr(luma, ox * a[0] + nx * b[0], ox * a[1] + nx * b[1]);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// 4:2:0 chroma (one value per 2 x 2 block) is interpolated bilinearly between
+    /// block centres, each pixel keeping its own luma, and the frame's edges repeat
+    /// their last block.
+    #[test]
+    fn repeated_chroma_is_interpolated_between_block_centres() {
+        // 6 x 4 pixels: 3 x 2 blocks, each its own colour, luma varying per pixel.
+        let block_colour = |bx: usize, by: usize| [[200u8, 60, 40], [40, 180, 60], [60, 40, 200]][(bx + by) % 3];
+        let (w, h) = (6, 4);
+        let mut frame = Image::new(w, h, [0u8; 3]);
+        for v in 0..h {
+            for u in 0..w {
+                let c = to_ycbcr(block_colour(u / 2, v / 2));
+                let luma = c[0] + (u as f32 - 2.5) * 3.0 + (v as f32 - 1.5) * 2.0;
+                *frame.get_mut(u, v) = from_ycbcr(luma, c[1], c[2]);
+            }
+        }
+        let pairs = ChromaPairs { horizontal: true, vertical: true };
+        let (mut blocks, mut out) = (Vec::new(), Image::new(w, h, [0u8; 3]));
+        interpolate_chroma_into(&frame, pairs, &mut blocks, &mut out);
+        let chroma = |p: [u8; 3]| {
+            let c = to_ycbcr(p);
+            [c[1], c[2]]
+        };
+        let block = |bx: usize, by: usize| {
+            let mut sum = [0f32; 2];
+            for (u, v) in [(0, 0), (1, 0), (0, 1), (1, 1)] {
+                let c = chroma(frame.get(2 * bx + u, 2 * by + v));
+                sum = [sum[0] + c[0] / 4.0, sum[1] + c[1] / 4.0];
+            }
+            sum
+        };
+        // Pixel (3, 1): block (1, 0), right half and lower half, so its neighbours are
+        // block (2, 0) across and block (1, 1) down.
+        let (a, b, c, d) = (block(1, 0), block(2, 0), block(1, 1), block(2, 1));
+        let expected = [0, 1].map(|k| 0.75 * (0.75 * a[k] + 0.25 * b[k]) + 0.25 * (0.75 * c[k] + 0.25 * d[k]));
+        let got = chroma(out.get(3, 1));
+        for k in 0..2 {
+            assert!((got[k] - expected[k]).abs() < 1.5, "pixel (3, 1) chroma {got:?}, expected {expected:?}");
+        }
+        // Pixel (0, 0): the frame's corner, its own block on both sides.
+        let (got, own) = (chroma(out.get(0, 0)), block(0, 0));
+        for k in 0..2 {
+            assert!((got[k] - own[k]).abs() < 1.5, "corner chroma {got:?}, its block's {own:?}");
+        }
+        // Every pixel keeps its luma (within the 8-bit rounding of the three channels).
+        for (p, q) in frame.pixels().iter().zip(out.pixels()) {
+            assert!((to_ycbcr(*p)[0] - to_ycbcr(*q)[0]).abs() < 1.0, "luma of {p:?} became that of {q:?}");
         }
     }
 }
