@@ -204,12 +204,18 @@ pub fn to_rgba8(src: &Image<[u8; 3]>) -> Vec<u8> {
     out
 }
 
+/// JFIF luma of gamma-encoded R, G, B (levels in, levels out).
+#[inline]
+pub fn luma([r, g, b]: [f32; 3]) -> f32 {
+    0.299 * r + 0.587 * g + 0.114 * b
+}
+
 /// JFIF's full-range BT.601 YCbCr (ITU-T T.871) of an 8-bit RGB pixel: the transform
 /// JPEG files and most webcam streams use. Cb and Cr are centred on 128.
 pub fn to_ycbcr(p: [u8; 3]) -> [f32; 3] {
     let [r, g, b] = p.map(|x| x as f32);
     [
-        0.299 * r + 0.587 * g + 0.114 * b,
+        luma([r, g, b]),
         128.0 - 0.168_736 * r - 0.331_264 * g + 0.5 * b,
         128.0 + 0.5 * r - 0.418_688 * g - 0.081_312 * b,
     ]
@@ -390,8 +396,7 @@ pub fn interpolate_chroma_into(
         }
         for (u, (&p, o)) in row.iter().zip(out_row.iter_mut()).enumerate() {
             let (a, b) = (column_mix[u / sx], column_mix[neighbour(u, u / sx, sx, bw)]);
-            let luma = 0.299 * p[0] as f32 + 0.587 * p[1] as f32 + 0.114 * p[2] as f32;
-            *o = from_ycbcr(luma, ox * a[0] + nx * b[0], ox * a[1] + nx * b[1]);
+            *o = from_ycbcr(luma(p.map(f32::from)), ox * a[0] + nx * b[0], ox * a[1] + nx * b[1]);
         }
     }
 }

@@ -31,7 +31,7 @@
 
 use crate::filter::Restored;
 use crate::num::max_f32;
-use crate::raster::{Rgb, SATURATED};
+use crate::raster::{luma, Rgb, SATURATED};
 
 /// A code in {-1, 0, +1}³ packed as a base-3 number, `(r+1)·9 + (g+1)·3 + (b+1)`.
 /// [`NO_CODE`] marks a boundary whose transition is not known exactly.
@@ -674,30 +674,16 @@ fn across(curve: &[f32; LUMA_CURVE_POINTS], y: f32) -> f32 {
     let mid = LUMA_CURVE_POINTS / 2;
     let rising = curve[LUMA_CURVE_POINTS - 1] > curve[0];
     let step = 1.0 / (LUMA_CURVE_POINTS - 1) as f32;
-    let later = (y > curve[mid]) == rising;
-    let segments: &mut dyn Iterator<Item = usize> = if later {
-        &mut (mid..LUMA_CURVE_POINTS - 1)
-    } else {
-        &mut (0..mid).rev()
-    };
-    for k in segments {
+    // Where on segment k the luma is, if it is on it.
+    let on = |k: usize| {
         let (a, b) = (curve[k], curve[k + 1]);
-        if (a <= y && y <= b) || (b <= y && y <= a) {
-            let f = if b != a { (y - a) / (b - a) } else { 0.5 };
-            return (k as f32 + f) * step;
-        }
-    }
-    if later {
-        1.0
+        ((a <= y && y <= b) || (b <= y && y <= a)).then(|| (k as f32 + if b != a { (y - a) / (b - a) } else { 0.5 }) * step)
+    };
+    if (y > curve[mid]) == rising {
+        (mid..LUMA_CURVE_POINTS - 1).find_map(on).unwrap_or(1.0)
     } else {
-        0.0
+        (0..mid).rev().find_map(on).unwrap_or(0.0)
     }
-}
-
-/// Luma (JFIF weights) of an 8-bit gamma-encoded pixel, 8-bit levels.
-#[inline]
-fn luma(p: [u8; 3]) -> f32 {
-    0.299 * p[0] as f32 + 0.587 * p[1] as f32 + 0.114 * p[2] as f32
 }
 
 /// Refine each boundary of `seg` with the frame's luma, for frames whose chroma came at
@@ -753,11 +739,7 @@ pub fn refine_with_luma(
             let k = b - a + 1.0;
             Some(sum.map(|v| v / k))
         };
-        let encoded_luma = |c: [f32; 3]| {
-            0.299 * encoder.encode(c[0])
-                + 0.587 * encoder.encode(c[1])
-                + 0.114 * encoder.encode(c[2])
-        };
+        let encoded_luma = |c: [f32; 3]| luma(c.map(|v| encoder.encode(v)));
         // The previous boundary's position before it was refined, and after.
         let (mut prev, mut prev_refined) = (f32::NEG_INFINITY, f32::NEG_INFINITY);
         for i in 0..edges.len() {
@@ -798,9 +780,9 @@ pub fn refine_with_luma(
             let first = (p - 1.5).floor().max(0.0) as usize;
             let last = ((p + 1.5).ceil() as usize).min(len - 1);
             let mut best: Option<f32> = None;
-            let mut y0 = luma(at(first));
+            let mut y0 = luma(at(first).map(f32::from));
             for t in first..last {
-                let y1 = luma(at(t + 1));
+                let y1 = luma(at(t + 1).map(f32::from));
                 let crosses = if rising {
                     y0 <= target && y1 > target
                 } else {
@@ -836,39 +818,17 @@ mod tests {
     use super::*;
     use crate::raster::gamma_lut;
 
-    /// One row with a red-to-green edge at `x0`, blurred in linear light (σ 0.7 px) and
-    /// gamma-encoded (2.2): the colours' gamma moves the luma gradient's peak off the
-    /// edge, not the crossing of the mean colour's luma.
+    /// One row with a red-to-green edge at `x0`, blurred in linear light (a logistic
+    /// profile of spread 0.4 px, about a Gaussian of σ 0.7: any symmetric blur does)
+    /// and gamma-encoded (2.2): the colours' gamma moves the luma gradient's peak off
+    /// the edge, not the crossing of the mean colour's luma.
     fn edge_row(x0: f32, left: [f32; 3], right: [f32; 3]) -> Vec<[u8; 3]> {
-        let phi = |x: f32| 0.5 * (1.0 + erf(x / (0.7 * std::f32::consts::SQRT_2)));
         (0..40)
             .map(|x| {
-                let t = phi(x as f32 - x0);
-                [0, 1, 2].map(|c| {
-                    (255.0 * (left[c] + (right[c] - left[c]) * t).powf(1.0 / 2.2)).round() as u8
-                })
+                let t = 1.0 / (1.0 + (-(x as f32 - x0) / 0.4).exp());
+                [0, 1, 2].map(|c| (255.0 * (left[c] + (right[c] - left[c]) * t).powf(1.0 / 2.2)).round() as u8)
             })
             .collect()
-    }
-
-    /// The error function by its Taylor series (to 1e-7 below 4; 1 beyond, where it
-    /// differs from 1 by under 2e-8).
-    fn erf(x: f32) -> f32 {
-        let (sign, x) = if x < 0.0 {
-            (-1.0, -x as f64)
-        } else {
-            (1.0, x as f64)
-        };
-        if x >= 4.0 {
-            return sign as f32;
-        }
-        let mut sum = x;
-        let mut term = x;
-        for n in 1..60 {
-            term *= -x * x / n as f64;
-            sum += term / (2 * n + 1) as f64;
-        }
-        (sign * 2.0 / std::f64::consts::PI.sqrt() * sum).clamp(-1.0, 1.0) as f32
     }
 
     fn one_edge(pos: f32) -> Segmentation {
