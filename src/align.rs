@@ -209,18 +209,10 @@ pub struct Aligner {
     /// Per edge, whether a labelling may jump to it (see [`JUMP_BITS`]).
     jumps: Vec<bool>,
     /// The labels carried on, edge after edge: edge `i`'s are `start[i]..start[i + 1]`,
-    /// each with its rank, the best prefix score with the edge labelled with it
-    /// (`labelled`), with it the last label at or before the edge (`last`), and the best
-    /// suffix score after the edge given that last label (`after`); with the last
-    /// labelled edge's position (`last_pos`) and the running estimate of the stripe
-    /// period (`pace`) of the best labelling so far.
+    /// with the best suffix score after the edge given each one's last label (`after`).
     start: Vec<usize>,
-    rank: Vec<u32>,
-    labelled: Vec<f32>,
-    last: Vec<f32>,
+    labels: Vec<Label>,
     after: Vec<f32>,
-    last_pos: Vec<f32>,
-    pace: Vec<f32>,
     /// Per edge, the best prefix score with nothing labelled yet (`none`), and the best
     /// suffix score after the edge with nothing labelled at or before it (`after_none`).
     none: Vec<f32>,
@@ -241,13 +233,23 @@ pub struct Aligner {
     landing: Vec<u64>,
     stay: Vec<f32>,
     emitted: Vec<f32>,
-    /// One edge's candidates before the beam: rank, `labelled`, `last`, `last_pos`,
-    /// `pace`.
-    edge_rank: Vec<u32>,
-    edge_labelled: Vec<f32>,
-    edge_last: Vec<f32>,
-    edge_pos: Vec<f32>,
-    edge_pace: Vec<f32>,
+    /// One edge's candidate labels before the beam.
+    candidates: Vec<Label>,
+}
+
+/// One label an edge carries on (one record, so that keeping it is one copy).
+#[derive(Clone, Copy, Default)]
+struct Label {
+    /// Its rank.
+    rank: u32,
+    /// The best prefix score with the edge labelled with it.
+    labelled: f32,
+    /// With it the last label at or before the edge, the best prefix score.
+    last: f32,
+    /// The last labelled edge's position, and the running estimate of the stripe period
+    /// of the best labelling so far.
+    last_pos: f32,
+    pace: f32,
 }
 
 /// What the alignment of one run reads of each edge and of the pattern's appearance.
@@ -340,20 +342,15 @@ impl Aligner {
         let pace_range = (PACE_RANGE.0 * period, PACE_RANGE.1 * period);
         // The fields apart, so that the loops keep their slices in registers.
         let Aligner {
-            rank_bit, lit, missed, words, code_ranks, used, gain, blind, jumps, start, rank, labelled, last, last_pos, pace, none, reach, reach_pace, kept, kept_pos,
-            kept_pace, cand, landing, edge_rank, edge_labelled, edge_last, edge_pos, edge_pace, ..
+            rank_bit, lit, missed, words, code_ranks, used, gain, blind, jumps, start, labels, none, reach, reach_pace, kept, kept_pos, kept_pace, cand, landing,
+            candidates, ..
         } = self;
         let words = *words;
-        for v in [&mut *labelled, &mut *last, &mut *last_pos, &mut *pace, &mut *none] {
-            v.clear();
-        }
-        rank.clear();
+        none.clear();
+        labels.clear();
         start.clear();
         // One edge's candidates, before the beam: at most every rank.
-        edge_rank.resize(nr, 0);
-        for v in [&mut *edge_labelled, &mut *edge_last, &mut *edge_pos, &mut *edge_pace] {
-            v.resize(nr, NONE);
-        }
+        candidates.resize(nr, Label::default());
         let (reach, kept) = (&mut reach[..], &mut kept[..]);
         let mut prev = 0..0;
         let mut prev_max = NONE;
@@ -367,7 +364,8 @@ impl Aligner {
             none.push(prev_none - SPURIOUS_BITS);
             let both_blind = if i == 0 { 0 } else { blind[i - 1] & blind[i] };
             for e in prev.clone() {
-                let (r, v, from_pos, p) = (rank[e] as usize, last[e], last_pos[e], pace[e]);
+                let Label { rank, last: v, last_pos: from_pos, pace: p, .. } = labels[e];
+                let r = rank as usize;
                 kept[r] = v - SPURIOUS_BITS;
                 kept_pos[r] = from_pos;
                 kept_pace[r] = p;
@@ -439,21 +437,16 @@ impl Aligner {
                     bits &= bits - 1;
                     let (from, p) = if fresh && restart > reach[r] { (restart, UNKNOWN_PACE) } else { (reach[r], reach_pace[r]) };
                     let here = from + emit(rank_bit, edge, r);
-                    edge_rank[count] = r as u32;
-                    edge_labelled[count] = here;
-                    if here >= kept[r] {
-                        edge_last[count] = here;
-                        edge_pos[count] = pos;
-                        edge_pace[count] = p;
+                    let label = if here >= kept[r] {
+                        Label { rank: r as u32, labelled: here, last: here, last_pos: pos, pace: p }
                     } else {
-                        edge_last[count] = kept[r];
-                        edge_pos[count] = kept_pos[r];
-                        edge_pace[count] = kept_pace[r];
-                    }
+                        Label { rank: r as u32, labelled: here, last: kept[r], last_pos: kept_pos[r], pace: kept_pace[r] }
+                    };
+                    candidates[count] = label;
                     reach[r] = NONE;
                     kept[r] = NONE;
-                    if edge_last[count] > row_max {
-                        row_max = edge_last[count];
+                    if label.last > row_max {
+                        row_max = label.last;
                         best_rank = r as u32;
                     }
                     count += 1;
@@ -464,22 +457,14 @@ impl Aligner {
             }
             // Keep the ranks within the beam, in order.
             let floor = row_max - BEAM_BITS;
-            let begin = rank.len();
+            let begin = labels.len();
             start.push(begin);
-            for c in 0..count {
-                if edge_last[c] >= floor {
-                    rank.push(edge_rank[c]);
-                    labelled.push(edge_labelled[c]);
-                    last.push(edge_last[c]);
-                    last_pos.push(edge_pos[c]);
-                    pace.push(edge_pace[c]);
-                }
-            }
-            prev = begin..rank.len();
+            labels.extend(candidates[..count].iter().filter(|c| c.last >= floor));
+            prev = begin..labels.len();
             prev_max = row_max;
             prev_best = best_rank;
         }
-        start.push(rank.len());
+        start.push(labels.len());
     }
 
     /// Suffix scores, from the last edge back: for each label of an edge, the best of
@@ -490,7 +475,7 @@ impl Aligner {
         let (n, nr) = (masks.len(), self.rank_bit.len());
         let spare = nr + MAX_STEP + 1;
         self.after.clear();
-        self.after.resize(self.rank.len(), NONE);
+        self.after.resize(self.labels.len(), NONE);
         self.after_none.clear();
         self.after_none.resize(n, NONE);
         for e in self.start[n - 1]..self.start[n] {
@@ -504,7 +489,7 @@ impl Aligner {
             let both_blind = self.blind[i] & self.blind[i + 1];
             let mut best_start = NONE;
             for e in next.clone() {
-                let t = self.rank[e] as usize;
+                let t = self.labels[e].rank as usize;
                 let emitted = emit(&self.rank_bit, edge, t);
                 self.stay[t] = self.after[e];
                 self.emitted[t] = emitted;
@@ -512,8 +497,8 @@ impl Aligner {
             }
             let jump = if self.jumps[i + 1] { best_start - JUMP_BITS } else { NONE };
             for e in self.start[i]..self.start[i + 1] {
-                let r = self.rank[e] as usize;
-                let p = self.pace[e];
+                let Label { rank, pace: p, .. } = self.labels[e];
+                let r = rank as usize;
                 let hidden = both_blind & self.lit[r];
                 let mut v = max_f32(self.stay[r] - SPURIOUS_BITS, jump);
                 for k in 1..=steps(hidden) {
@@ -530,7 +515,7 @@ impl Aligner {
                 self.after[e] = v;
             }
             for e in next {
-                let t = self.rank[e] as usize;
+                let t = self.labels[e].rank as usize;
                 self.stay[t] = NONE;
                 self.emitted[t] = NONE;
             }
@@ -549,22 +534,22 @@ impl Aligner {
                 // increasing rank.
                 let mut e = here.start;
                 for p in self.start[i - 1]..self.start[i] {
-                    let r = self.rank[p];
-                    while e < here.end && self.rank[e] < r {
+                    let r = self.labels[p].rank;
+                    while e < here.end && self.labels[e].rank < r {
                         e += 1;
                     }
-                    if e < here.end && self.rank[e] == r {
-                        spurious = max_f32(spurious, self.last[p] - SPURIOUS_BITS + self.after[e]);
+                    if e < here.end && self.labels[e].rank == r {
+                        spurious = max_f32(spurious, self.labels[p].last - SPURIOUS_BITS + self.after[e]);
                     }
                 }
             }
             let (mut best, mut second, mut best_r) = (NONE, NONE, u32::MAX);
             for e in here {
-                let s = self.labelled[e] + self.after[e];
+                let s = self.labels[e].labelled + self.after[e];
                 if s > best {
                     second = best;
                     best = s;
-                    best_r = self.rank[e];
+                    best_r = self.labels[e].rank;
                 } else if s > second {
                     second = s;
                 }
