@@ -622,8 +622,10 @@ fn steps(hidden: u8) -> usize {
 /// `None` when the step is too long for what is hidden.
 #[inline]
 fn skip_cost(missed: &[f32], spare: usize, hidden: u8, r: usize, k: usize) -> Option<f32> {
-    if k > MAX_MISSED + 1 && hidden == 0 {
-        return None;
+    if hidden == 0 {
+        // The table's first row, without the slicing of the general case (the common
+        // case: nothing hidden).
+        return (k <= MAX_MISSED + 1).then(|| missed[r + k] - missed[r + 1]);
     }
     let row = &missed[hidden as usize * spare..(hidden as usize + 1) * spare];
     Some(row[r + k] - row[r + 1])
