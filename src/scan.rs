@@ -197,6 +197,8 @@ pub struct Scanner {
     triangulator: Triangulator,
     weights: Vec<Vec<f32>>,
     merged_families: Vec<u8>,
+    /// The pixels [`merge::remove_rim`] removes.
+    rim: Vec<u32>,
     scratch: Vec<f32>,
     /// Per family: a scratch plane and the milliseconds of its four stages.
     family_scratch: Vec<Vec<f32>>,
@@ -353,6 +355,7 @@ impl Scanner {
             // A single family is not merged: it needs no weights.
             weights: (0..n).map(|_| if n > 1 { plane() } else { Vec::new() }).collect(),
             merged_families: vec![0; w * h],
+            rim: Vec::new(),
             scratch: Vec::new(),
             family_scratch: (0..n).map(|_| Vec::new()).collect(),
             family_ms: vec![[0.0; 4]; n],
@@ -542,6 +545,7 @@ impl Scanner {
         }
         clock.lap("families", &mut laps);
         merge::merge_into(&r.family_depth, &self.weights, r.depth.pixels_mut(), &mut self.merged_families);
+        merge::remove_rim(r.depth.pixels_mut(), &mut self.merged_families, self.linear.pixels(), w, h, &mut self.rim);
         merge::remove_isolated(r.depth.pixels_mut(), w, h, &mut self.scratch);
         clock.lap("merge", &mut laps);
 

@@ -17,22 +17,24 @@ wasm_bindgen_test::wasm_bindgen_test_configure!(run_in_dedicated_worker);
 
 use stripelight::eval::hard::{condition, HardEval};
 
-/// (scene, condition, coverage measured, outliers measured), shares of 1.
+/// (scene, condition, coverage measured, outliers measured), shares of 1. Before the
+/// rim of the projector's light was removed (`merge::remove_rim`), occluders/world had
+/// 0.69 % outliers, bag 0.33 %, skin/clipped 0.40 %, wall/partial 0.14 %.
 const MEASURED: &[(&str, &str, f64, f64)] = &[
-    ("colorchecker", "default", 0.8286, 0.0032),
-    ("sphere-dye", "default", 0.7960, 0.0030),
-    ("paper-dye", "default", 0.7371, 0.0123),
-    ("bag", "default", 0.5355, 0.0033),
+    ("colorchecker", "default", 0.8244, 0.0024),
+    ("sphere-dye", "default", 0.7967, 0.0018),
+    ("paper-dye", "default", 0.7349, 0.0122),
+    ("bag", "default", 0.5355, 0.0011),
     // 4:2:0 and JPEG: 1.23 % outliers before the boundaries were refined with the
     // frame's luma (and a chain's one thrown position mended).
-    ("paper", "webcam", 0.9375, 0.0100),
-    ("skin", "clipped", 0.9330, 0.0040),
-    ("wall", "partial", 0.9974, 0.0014),
-    ("occluders", "world", 0.9057, 0.0069),
+    ("paper", "webcam", 0.9374, 0.0098),
+    ("skin", "clipped", 0.9332, 0.0020),
+    ("wall", "partial", 0.9974, 0.0001),
+    ("occluders", "world", 0.9059, 0.0050),
     // 25-pixel stripes: a cast shadow between two stripes' edges was bridged as one
     // stripe (15.8 % outliers before the decoder compared a stripe's light with its
     // neighbours').
-    ("occluders", "wide", 0.8549, 0.0560),
+    ("occluders", "wide", 0.8548, 0.0521),
 ];
 
 both_targets! {
