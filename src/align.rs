@@ -99,16 +99,6 @@ pub const JUMP_BITS: f32 = 12.0;
 /// predecessor's labels).
 pub const JUMP_MAX_CODES: u32 = 2;
 
-/// How many edges after a jump's edge may show the next boundary: a jump lands only on
-/// the ranks from which one of them can be reached in a step, so texture edges (specific
-/// codes that the best labelling cannot take) do not seed a label at every rank of their
-/// code. One edge ahead kept every row of the hard evaluation within 0.01 points
-/// except for 0.03-0.05 more outliers on three rows (the
-/// decoded edges lose chance rivals); two edges, within 0.01 everywhere, for a fifth
-/// fewer instructions in the alignment of the textured webcam frame
-/// (`examples/bench_frame`).
-pub const JUMP_LOOKAHEAD: usize = 2;
-
 /// Margin of an edge's best rank over every other rank for it to be taken, bits.
 /// Measured on the simulated scenes (`eval --scenes sphere,colorchecker,sphere-dye,
 /// paper-dye,bag,occluders,wood,skin --directions 1,2 --filters loggrad`, mean of the
@@ -229,8 +219,6 @@ pub struct Aligner {
     kept_pos: Vec<f32>,
     kept_pace: Vec<f32>,
     cand: Vec<u64>,
-    /// The ranks a jump may land on (a bit set like `cand`).
-    landing: Vec<u64>,
     stay: Vec<f32>,
     emitted: Vec<f32>,
     /// One edge's candidate labels before the beam.
@@ -342,7 +330,7 @@ impl Aligner {
         let pace_range = (PACE_RANGE.0 * period, PACE_RANGE.1 * period);
         // The fields apart, so that the loops keep their slices in registers.
         let Aligner {
-            rank_bit, lit, missed, words, code_ranks, used, gain, blind, jumps, start, labels, none, reach, reach_pace, kept, kept_pos, kept_pace, cand, landing,
+            rank_bit, lit, missed, words, code_ranks, used, gain, blind, jumps, start, labels, none, reach, reach_pace, kept, kept_pos, kept_pace, cand,
             candidates, ..
         } = self;
         let words = *words;
@@ -408,22 +396,12 @@ impl Aligner {
             let restart = if jump { max_f32(prev_none, prev_max - JUMP_BITS) } else { prev_none };
             let fresh = i == 0 || restart >= prev_max - BEAM_BITS;
             if fresh {
-                // Where only the jump makes the edge fresh, it lands only on the ranks
-                // the next two edges can follow (see [`JUMP_LOOKAHEAD`]).
-                landing.clear();
-                if i > 0 && prev_none < prev_max - BEAM_BITS {
-                    let next = masks[i + 1..].iter().take(JUMP_LOOKAHEAD);
-                    let hidden = blind[i + 1..].iter().take(JUMP_LOOKAHEAD).fold(0, |h, &b| h | b & blind[i]);
-                    followed_by(code_ranks, next.fold(0, |m, &n| m | n) & *used, steps(hidden), landing);
-                } else {
-                    landing.resize(words, u64::MAX);
-                }
                 let mut m = mask & ((1 << 27) - 1);
                 while m != 0 {
                     let c = m.trailing_zeros() as usize;
                     m &= m - 1;
-                    for ((w, bits), land) in cand.iter_mut().zip(&code_ranks[c * words..(c + 1) * words]).zip(&*landing) {
-                        *w |= bits & land;
+                    for (w, bits) in cand.iter_mut().zip(&code_ranks[c * words..(c + 1) * words]) {
+                        *w |= bits;
                     }
                 }
             }
@@ -580,30 +558,6 @@ fn emit(rank_bit: &[u8], (mask, gain): (u64, f32), r: usize) -> f32 {
 #[inline]
 fn jumpable(mask: u32, used: u32) -> bool {
     (mask & used).count_ones() <= JUMP_MAX_CODES
-}
-
-/// Into `out`, the ranks from which a step of at most `reach` ranks lands on a rank
-/// whose code is in `codes` (`code_ranks` as in [`Aligner`]).
-fn followed_by(code_ranks: &[u64], codes: u32, reach: usize, out: &mut Vec<u64>) {
-    let words = code_ranks.len() / 27;
-    out.resize(2 * words, 0);
-    let (out, target) = out.split_at_mut(words);
-    let mut m = codes;
-    while m != 0 {
-        let c = m.trailing_zeros() as usize;
-        m &= m - 1;
-        for (t, bits) in target.iter_mut().zip(&code_ranks[c * words..(c + 1) * words]) {
-            *t |= bits;
-        }
-    }
-    // Bit r of `out` for bit r + k of `target`, k in 1..=reach: the set shifted down
-    // across its words.
-    for k in 1..=reach {
-        for w in 0..words {
-            let above = if w + 1 < words { target[w + 1] << (64 - k) } else { 0 };
-            out[w] |= target[w] >> k | above;
-        }
-    }
 }
 
 /// How many ranks a step may cross when the channels `hidden` are unreadable at both of
