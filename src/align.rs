@@ -234,9 +234,9 @@ struct Label {
     labelled: f32,
     /// With it the last label at or before the edge, the best prefix score.
     last: f32,
-    /// The last labelled edge's position, and the running estimate of the stripe period
-    /// of the best labelling so far.
+    /// The position of the last labelled edge of the best labelling so far.
     last_pos: f32,
+    /// That labelling's running estimate of the stripe period.
     pace: f32,
 }
 
@@ -715,18 +715,25 @@ mod tests {
         assert!(named * 2 >= masks.len(), "only {named} of {} edges identified: {out:?}", masks.len());
     }
 
+    /// One run with a depth discontinuity between ranks 29 and 60: the pattern's codes,
+    /// an aligner for them, and the run's true ranks, masks and positions. The far
+    /// surface's stripes are narrower (it is further away) and start right after the
+    /// near one's.
+    fn jump_run() -> (Vec<u8>, Aligner, Vec<i32>, Vec<u32>, Vec<f32>) {
+        let codes = random_codes(0x0bad_5eed, 100);
+        let al = Aligner::new(codes.iter().map(|&c| (c, 7)));
+        let truth: Vec<i32> = (10..30).chain(60..80).collect();
+        let masks = truth.iter().map(|&r| 1u32 << codes[r as usize]).collect();
+        let positions = truth.iter().map(|&r| if r < 30 { 7.0 * r as f32 } else { 210.0 + 5.0 * (r - 59) as f32 }).collect();
+        (codes, al, truth, masks, positions)
+    }
+
     /// A depth discontinuity inside one run: the ranks jump from 30 to 60. The edges
     /// beyond it take their true ranks (or none), never ranks carried on from before,
     /// and at most the first two stay empty.
     #[test]
     fn a_jump_inside_a_run_is_followed() {
-        let codes = random_codes(0x0bad_5eed, 100);
-        let mut al = Aligner::new(codes.iter().map(|&c| (c, 7)));
-        let truth: Vec<i32> = (10..30).chain(60..80).collect();
-        let masks: Vec<u32> = truth.iter().map(|&r| 1u32 << codes[r as usize]).collect();
-        // The far surface's stripes are narrower (it is further away) and start right
-        // after the near one's.
-        let positions: Vec<f32> = truth.iter().map(|&r| if r < 30 { 7.0 * r as f32 } else { 210.0 + 5.0 * (r - 59) as f32 }).collect();
+        let (_, mut al, truth, masks, positions) = jump_run();
         let mut out = vec![0; masks.len()];
         al.align(RunInput { masks: &masks, positions: &positions, period: 7.0 }, &mut out);
         for (i, (&o, &t)) in out.iter().zip(&truth).enumerate() {
@@ -741,11 +748,7 @@ mod tests {
     /// none), all but the first.
     #[test]
     fn a_jump_followed_by_a_spurious_edge_is_followed() {
-        let codes = random_codes(0x0bad_5eed, 100);
-        let mut al = Aligner::new(codes.iter().map(|&c| (c, 7)));
-        let mut truth: Vec<i32> = (10..30).chain(60..80).collect();
-        let mut positions: Vec<f32> = truth.iter().map(|&r| if r < 30 { 7.0 * r as f32 } else { 210.0 + 5.0 * (r - 59) as f32 }).collect();
-        let mut masks: Vec<u32> = truth.iter().map(|&r| 1u32 << codes[r as usize]).collect();
+        let (codes, mut al, mut truth, mut masks, mut positions) = jump_run();
         let spurious = (0..27u32).find(|&c| c != 13 && (61..=63).all(|r| codes[r] as u32 != c)).unwrap();
         masks.insert(21, 1 << spurious);
         positions.insert(21, 0.5 * (positions[20] + positions[21]));
