@@ -83,6 +83,9 @@ pub struct Decoder {
     down: Vec<u32>,
     /// The edges of one line whose identities its neighbours contradict.
     dropped: Vec<u32>,
+    /// Per pixel, whether [`Decoder::stripe_coords_into`] gave it its coordinate by
+    /// extending a decoded stretch past its last boundary (see [`EXTEND_REACH`]).
+    extended: Vec<bool>,
 }
 
 /// The alignment of a run to the pattern with its buffers.
@@ -174,6 +177,7 @@ impl Decoder {
             up: Vec::new(),
             down: Vec::new(),
             dropped: Vec::new(),
+            extended: Vec::new(),
         }
     }
 
@@ -365,9 +369,13 @@ impl Decoder {
     /// bridged, nor `k` stripes wider than `max_width · (k + 2) / 3`, nor stripes with a
     /// pixel inside them lit less than [`SHADOW_SHARE`] of their ends, nor a single
     /// stripe darker than the pattern allows beside a neighbour (`Decoder::shadowed`;
-    /// `linear`, the frame's linear colour).
-    pub fn stripe_coords_into(&self, seg: &Segmentation, linear: &[[f32; 3]], width: usize, max_width: f32, out: &mut [f32]) {
+    /// `linear`, the frame's linear colour). Then each decoded stretch is extended
+    /// into the stripe beyond either end ([`EXTEND_REACH`]); [`Decoder::extended`]
+    /// tells which pixels were.
+    pub fn stripe_coords_into(&mut self, seg: &Segmentation, linear: &[[f32; 3]], width: usize, max_width: f32, out: &mut [f32]) {
         out.iter_mut().for_each(|q| *q = f32::NAN);
+        self.extended.clear();
+        self.extended.resize(out.len(), false);
         let Some(axis) = seg.axis else { return };
         let step = if self.increasing { 1 } else { -1 };
         let line_len = match axis {
@@ -412,6 +420,135 @@ impl Decoder {
                     s += 1;
                 }
             }
+            let light_line = LineLight { linear, axis, line, line_len, width };
+            for (i, a) in edges.iter().enumerate() {
+                if a.id < 0 {
+                    continue;
+                }
+                // Past `a` when the boundary before it is the stripe before it, and
+                // before `a` when the one after it is the stripe after it.
+                let before = i.checked_sub(1).map(|k| edges[k]);
+                let after = edges.get(i + 1).copied();
+                if let Some(p) = before.filter(|p| p.id >= 0 && (a.id - p.id) * step == 1 && p.run == a.run && a.pos > p.pos) {
+                    extend_stripe(&light_line, a, a.pos - p.pos, 1, after.map(|e| e.pos), step, out, &mut self.extended);
+                }
+                if let Some(n) = after.filter(|n| n.id >= 0 && (n.id - a.id) * step == 1 && n.run == a.run && n.pos > a.pos) {
+                    extend_stripe(&light_line, a, n.pos - a.pos, -1, before.map(|e| e.pos), step, out, &mut self.extended);
+                }
+            }
+        }
+    }
+
+    /// Per pixel, whether the last [`Decoder::stripe_coords_into`] extended a decoded
+    /// stretch into it.
+    pub fn extended(&self) -> &[bool] {
+        &self.extended
+    }
+}
+
+/// How far past a decoded stretch's last boundary, in widths of its last stripe, the
+/// stretch is extended into the next stripe (whose far boundary was not identified:
+/// seen without an edge, with too little evidence, or cut off by a shadow, an occluding
+/// edge or the end of the light). Each pixel of the stretch's last stripe is
+/// interpolated between its two boundaries; the pixels beyond, in the next stripe, got
+/// nothing, which left the last stripe or two before every gap empty. Extended, they
+/// take the coordinate the last stripe's width predicts, up to 0.85 of that width
+/// (short of where the unseen boundary is expected), while they keep the light
+/// ([`EXTEND_LIGHT_RATIO`]) and the colour ([`EXTEND_CHROMA`]) of the next stripe's
+/// first pixel and do not reach another edge. An extension that stops at a change
+/// leaves out its last pixel (it may straddle the change). After the merge,
+/// [`crate::merge::remove_disputed_extensions`] removes those that a nearby depth
+/// contradicts (an extension across an occluding edge that showed no change).
+pub const EXTEND_REACH: f32 = 0.85;
+
+/// Largest ratio, either way, between the light (sum of the linear channels) of an
+/// extended pixel and of the first pixel of its stripe: inside one stripe the
+/// projector's colour is the same, so only the surface's shading and albedo change it,
+/// while another surface seen past an occluding edge shows another stripe.
+pub const EXTEND_LIGHT_RATIO: f32 = 1.3;
+
+/// Largest change of any channel's share of the light (chromaticity) from the
+/// extended stripe's second pixel to an extended pixel.
+pub const EXTEND_CHROMA: f32 = 0.1;
+
+/// One scan line of the frame's linear colour.
+struct LineLight<'a> {
+    linear: &'a [[f32; 3]],
+    axis: ScanAxis,
+    line: usize,
+    line_len: usize,
+    width: usize,
+}
+
+impl LineLight<'_> {
+    fn inside(&self, s: isize) -> bool {
+        s >= 0 && (s as usize) < self.line_len
+    }
+
+    fn index(&self, s: isize) -> usize {
+        axis_index(self.axis, self.line, s as usize, self.width)
+    }
+
+    fn pixel(&self, s: isize) -> [f32; 3] {
+        self.linear.get(self.index(s)).copied().unwrap_or([0.0; 3])
+    }
+}
+
+fn light(p: [f32; 3]) -> f32 {
+    p[0] + p[1] + p[2]
+}
+
+fn chromaticity(p: [f32; 3]) -> [f32; 3] {
+    let total = light(p).max(1e-6);
+    p.map(|v| v / total)
+}
+
+/// Extend the decoded stretch that ends at the identified boundary `a`, whose last
+/// stripe is `w` pixels wide, into the stripe beyond it in direction `d` (+1 or -1
+/// along the line), up to [`EXTEND_REACH`] · `w` and short of the next edge at
+/// `limit`; `step` is +1 when identities grow along the line. Fills only pixels
+/// without a coordinate, and marks them in `extended`.
+#[allow(clippy::too_many_arguments)]
+fn extend_stripe(line: &LineLight, a: &Edge, w: f32, d: isize, limit: Option<f32>, step: i32, out: &mut [f32], extended: &mut [bool]) {
+    let first = if d > 0 { a.pos.ceil() } else { a.pos.floor() } as isize;
+    if !line.inside(first) || !out[line.index(first)].is_nan() {
+        return;
+    }
+    // The next stripe must not start in a shadow: its first pixel against the middle
+    // of the stripe decoded before it.
+    let start = light(line.pixel(first));
+    let known = light(line.pixel((a.pos - d as f32 * 0.5 * w).round() as isize));
+    if start < SHADOW_SHARE * known {
+        return;
+    }
+    let second = if line.inside(first + d) { first + d } else { first };
+    let hue = chromaticity(line.pixel(second));
+    let mut n = 0;
+    let stopped_at_change = loop {
+        let s = first + d * n;
+        if !line.inside(s) || (s as f32 - a.pos).abs() >= EXTEND_REACH * w {
+            break false;
+        }
+        if limit.is_some_and(|e| (e - s as f32) * d as f32 <= 0.0) {
+            break true;
+        }
+        let p = line.pixel(s);
+        let l = light(p);
+        let c = chromaticity(p);
+        if l * EXTEND_LIGHT_RATIO < start || l > EXTEND_LIGHT_RATIO * start || (0..3).any(|k| (c[k] - hue[k]).abs() >= EXTEND_CHROMA) {
+            break true;
+        }
+        n += 1;
+    };
+    if stopped_at_change {
+        n -= 1;
+    }
+    for k in 0..n.max(0) {
+        let s = first + d * k;
+        let i = line.index(s);
+        if out[i].is_nan() {
+            out[i] = a.id as f32 + step as f32 * (s as f32 - a.pos) / w;
+            extended[i] = true;
         }
     }
 }
@@ -681,6 +818,42 @@ mod tests {
         assert!((mended - straight(5)).abs() < 0.01, "thrown position became {mended}, the line gives {}", straight(5));
         for l in 3..9 {
             assert_eq!(seg.lines[l][1].pos, bent(l), "line {l}: the bend moved");
+        }
+    }
+
+    /// Two identified boundaries one stripe (8 px) apart and an unidentified edge far
+    /// beyond: the stripe between them is interpolated, and the decoded stretch is
+    /// extended into the stripes either side, up to 0.85 of a stripe's width, with
+    /// the coordinates the stripe's width predicts. On a second line a shadow begins 3
+    /// px past the stretch: the extension stops short of it, less the pixel beside it.
+    #[test]
+    fn a_decoded_stretch_is_extended_into_the_next_stripes() {
+        let spec = PatternSpec::generate(1, 64, 16, 8.0).unwrap();
+        let mut decoder = Decoder::new(&spec, 0, true);
+        let (w, len) = (50, 50);
+        let mut seg = Segmentation::default();
+        seg.axis = Some(ScanAxis::Rows);
+        seg.lines = vec![vec![edge(10.3, 5), edge(18.3, 6), edge(40.5, -1)]; 2];
+        let mut linear = vec![[0.3f32; 3]; w * 2];
+        for p in &mut linear[w + 21..w + len] {
+            *p = [0.05; 3];
+        }
+        let mut out = vec![0.0; w * 2];
+        decoder.stripe_coords_into(&seg, &linear, w, 100.0, &mut out);
+        let ext = decoder.extended();
+        for s in 11..=18 {
+            assert!(!ext[s] && (out[s] - (5.0 + (s as f32 - 10.3) / 8.0)).abs() < 1e-5, "pixel {s}: {}", out[s]);
+        }
+        for s in (4..=10).chain(19..=25) {
+            let want = 5.0 + (s as f32 - 10.3) / 8.0;
+            assert!(ext[s] && (out[s] - want).abs() < 1e-5, "pixel {s}: {} (extended {}), want {want}", out[s], ext[s]);
+        }
+        for s in [3, 26] {
+            assert!(out[s].is_nan(), "pixel {s}: {} is past the reach", out[s]);
+        }
+        assert!(ext[w + 19], "the shadowed line's first extended pixel");
+        for s in 20..len {
+            assert!(out[w + s].is_nan(), "pixel {s} of the shadowed line: {}", out[w + s]);
         }
     }
 }

@@ -197,7 +197,7 @@ pub struct Scanner {
     triangulator: Triangulator,
     weights: Vec<Vec<f32>>,
     merged_families: Vec<u8>,
-    /// The pixels [`merge::remove_rim`] removes.
+    /// The pixels [`merge::remove_disputed_extensions`] and [`merge::remove_rim`] remove.
     rim: Vec<u32>,
     scratch: Vec<f32>,
     /// Per family: a scratch plane and the milliseconds of its four stages.
@@ -545,6 +545,12 @@ impl Scanner {
         }
         clock.lap("families", &mut laps);
         merge::merge_into(&r.family_depth, &self.weights, r.depth.pixels_mut(), &mut self.merged_families);
+        let mut extended: [&[bool]; 3] = [&[]; 3];
+        for (e, decoder) in extended.iter_mut().zip(&self.decoders) {
+            *e = decoder.extended();
+        }
+        let extended = &extended[..self.decoders.len().min(3)];
+        merge::remove_disputed_extensions(r.depth.pixels_mut(), &mut self.merged_families, extended, w, h, &mut self.rim);
         merge::remove_rim(r.depth.pixels_mut(), &mut self.merged_families, self.linear.pixels(), w, h, &mut self.rim);
         merge::remove_isolated(r.depth.pixels_mut(), w, h, &mut self.scratch);
         clock.lap("merge", &mut laps);

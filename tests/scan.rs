@@ -182,13 +182,19 @@ mod native {
     }
 
     /// The paper's second claim: near depth discontinuities two directions cover
-    /// clearly more than one.
+    /// clearly more than one: 7 points more with `loggrad` (issue 10's setting), 5 with
+    /// `direct`. Since decoded stretches are extended into the stripe beyond their
+    /// ends (`decode::EXTEND_REACH`), one direction covers much more of the band
+    /// itself (occluders, edge coverage, one / two directions: loggrad 60.6 / 79.4 % to
+    /// 70.7 / 81.9 %, direct 67.8 / 82.5 % to 77.9 / 84.1 %), so the margin left for
+    /// the second direction is smaller; with `direct` it fell under the 7 points this
+    /// test asked of both filters before.
     #[test]
     fn two_directions_cover_more_near_discontinuities() {
-        for filter in [FilterMode::LogGrad, FilterMode::Direct] {
+        for (filter, margin) in [(FilterMode::LogGrad, 0.07), (FilterMode::Direct, 0.05)] {
             let one = row("occluders", 1, filter).merged.edge_coverage;
             let two = row("occluders", 2, filter).merged.edge_coverage;
-            assert!(two > one + 0.07, "{filter}: one direction {one:.3}, two {two:.3}");
+            assert!(two > one + margin, "{filter}: one direction {one:.3}, two {two:.3}");
         }
     }
 
