@@ -83,9 +83,9 @@ pub struct Decoder {
     down: Vec<u32>,
     /// The edges of one line whose identities its neighbours contradict.
     dropped: Vec<u32>,
-    /// Per pixel, whether [`Decoder::stripe_coords_into`] gave it its coordinate by
-    /// extending a decoded stretch past its last boundary (see [`EXTEND_REACH`]).
-    extended: Vec<bool>,
+    /// The pixels [`Decoder::stripe_coords_into`] gave their coordinate by extending a
+    /// decoded stretch past its last boundary (see [`EXTEND_REACH`]).
+    extended: Vec<u32>,
 }
 
 /// The alignment of a run to the pattern with its buffers.
@@ -375,7 +375,6 @@ impl Decoder {
     pub fn stripe_coords_into(&mut self, seg: &Segmentation, linear: &[[f32; 3]], width: usize, max_width: f32, out: &mut [f32]) {
         out.iter_mut().for_each(|q| *q = f32::NAN);
         self.extended.clear();
-        self.extended.resize(out.len(), false);
         let Some(axis) = seg.axis else { return };
         let step = if self.increasing { 1 } else { -1 };
         let line_len = match axis {
@@ -439,9 +438,9 @@ impl Decoder {
         }
     }
 
-    /// Per pixel, whether the last [`Decoder::stripe_coords_into`] extended a decoded
-    /// stretch into it.
-    pub fn extended(&self) -> &[bool] {
+    /// The pixels into which the last [`Decoder::stripe_coords_into`] extended a
+    /// decoded stretch (each once).
+    pub fn extended(&self) -> &[u32] {
         &self.extended
     }
 }
@@ -507,9 +506,9 @@ fn chromaticity(p: [f32; 3]) -> [f32; 3] {
 /// stripe is `w` pixels wide, into the stripe beyond it in direction `d` (+1 or -1
 /// along the line), up to [`EXTEND_REACH`] · `w` and short of the next edge at
 /// `limit`; `step` is +1 when identities grow along the line. Fills only pixels
-/// without a coordinate, and marks them in `extended`.
+/// without a coordinate, and adds them to `extended`.
 #[allow(clippy::too_many_arguments)]
-fn extend_stripe(line: &LineLight, a: &Edge, w: f32, d: isize, limit: Option<f32>, step: i32, out: &mut [f32], extended: &mut [bool]) {
+fn extend_stripe(line: &LineLight, a: &Edge, w: f32, d: isize, limit: Option<f32>, step: i32, out: &mut [f32], extended: &mut Vec<u32>) {
     let first = if d > 0 { a.pos.ceil() } else { a.pos.floor() } as isize;
     if !line.inside(first) || !out[line.index(first)].is_nan() {
         return;
@@ -548,7 +547,7 @@ fn extend_stripe(line: &LineLight, a: &Edge, w: f32, d: isize, limit: Option<f32
         let i = line.index(s);
         if out[i].is_nan() {
             out[i] = a.id as f32 + step as f32 * (s as f32 - a.pos) / w;
-            extended[i] = true;
+            extended.push(i as u32);
         }
     }
 }
@@ -840,7 +839,7 @@ mod tests {
         }
         let mut out = vec![0.0; w * 2];
         decoder.stripe_coords_into(&seg, &linear, w, 100.0, &mut out);
-        let ext = decoder.extended();
+        let ext: Vec<bool> = (0..out.len()).map(|i| decoder.extended().contains(&(i as u32))).collect();
         for s in 11..=18 {
             assert!(!ext[s] && (out[s] - (5.0 + (s as f32 - 10.3) / 8.0)).abs() < 1e-5, "pixel {s}: {}", out[s]);
         }

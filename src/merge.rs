@@ -157,26 +157,26 @@ pub fn remove_rim(depth: &mut [f32], families: &mut [u8], linear: &[[f32; 3]], w
 pub const DISPUTE_REACH: usize = 3;
 
 /// Remove the merged depths that some family's decoder only extended into
-/// (`extended[k]`: family k's [`crate::decode::Decoder::extended`], read where
-/// `families` has bit k) and that a depth within [`DISPUTE_REACH`] contradicts (they
-/// differ by more than [`neighbour_tolerance`]): an extension past an occluding edge
-/// that showed no change takes the near surface's coordinate onto the far one (or the
-/// other way). All are judged on the depths as they were before any was removed
-/// (`removed` keeps the pixels to remove); returns how many were.
-pub fn remove_disputed_extensions(depth: &mut [f32], families: &mut [u8], extended: &[&[bool]], width: usize, height: usize, removed: &mut Vec<u32>) -> usize {
+/// (`extended[k]`: the pixels of family k's [`crate::decode::Decoder::extended`],
+/// counted where `families` has bit k) and that a depth within [`DISPUTE_REACH`]
+/// contradicts (they differ by more than [`neighbour_tolerance`]): an extension past
+/// an occluding edge that showed no change takes the near surface's coordinate onto
+/// the far one (or the other way). All are judged on the depths as they were before
+/// any was removed (`removed` keeps the pixels to remove); returns how many were.
+pub fn remove_disputed_extensions(depth: &mut [f32], families: &mut [u8], extended: &[&[u32]], width: usize, height: usize, removed: &mut Vec<u32>) -> usize {
     removed.clear();
-    if depth.len() != width * height || families.len() != depth.len() || extended.iter().any(|e| e.len() != depth.len()) {
+    if depth.len() != width * height || families.len() != depth.len() {
         return 0;
     }
     let r = DISPUTE_REACH;
-    for y in 0..height {
-        for x in 0..width {
-            let i = y * width + x;
-            let z = depth[i];
-            let f = families[i];
-            if z.is_nan() || !extended.iter().enumerate().any(|(k, e)| f & (1 << k) != 0 && e[i]) {
+    for (k, pixels) in extended.iter().enumerate() {
+        for &i in pixels.iter() {
+            let i = i as usize;
+            let (Some(&z), Some(&f)) = (depth.get(i), families.get(i)) else { continue };
+            if z.is_nan() || f & (1 << k) == 0 {
                 continue;
             }
+            let (x, y) = (i % width, i / width);
             let tol = neighbour_tolerance(z);
             let disputed = (y.saturating_sub(r)..(y + r + 1).min(height))
                 .any(|yy| depth[yy * width + x.saturating_sub(r)..yy * width + (x + r + 1).min(width)].iter().any(|&o| (o - z).abs() > tol));
@@ -185,6 +185,9 @@ pub fn remove_disputed_extensions(depth: &mut [f32], families: &mut [u8], extend
             }
         }
     }
+    // A pixel two families extended into is judged twice.
+    removed.sort_unstable();
+    removed.dedup();
     for &i in removed.iter() {
         depth[i as usize] = f32::NAN;
         families[i as usize] = 0;
@@ -287,7 +290,8 @@ mod tests {
         // On one row, family 1 alone measured the extended pixel.
         families[2 * w + 8] = 2;
         let mut removed = Vec::new();
-        let n = remove_disputed_extensions(&mut depth, &mut families, &[&ext0, &ext1], w, h, &mut removed);
+        let list = |ext: &[bool]| (0..w * h).filter(|&i| ext[i]).map(|i| i as u32).collect::<Vec<u32>>();
+        let n = remove_disputed_extensions(&mut depth, &mut families, &[&list(&ext0), &list(&ext1)], w, h, &mut removed);
         assert_eq!(n, h - 1);
         for y in 0..h {
             for x in 0..w {

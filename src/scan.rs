@@ -545,7 +545,7 @@ impl Scanner {
         }
         clock.lap("families", &mut laps);
         merge::merge_into(&r.family_depth, &self.weights, r.depth.pixels_mut(), &mut self.merged_families);
-        let mut extended: [&[bool]; 3] = [&[]; 3];
+        let mut extended: [&[u32]; 3] = [&[]; 3];
         for (e, decoder) in extended.iter_mut().zip(&self.decoders) {
             *e = decoder.extended();
         }
