@@ -454,7 +454,7 @@ impl Decoder {
 /// take the coordinate the last stripe's width predicts, up to 0.85 of that width
 /// (short of where the unseen boundary is expected), while they keep the light
 /// ([`EXTEND_LIGHT_RATIO`]) and the colour ([`EXTEND_CHROMA`]) of the next stripe's
-/// first pixel and do not reach another edge. An extension that stops at a change
+/// first pixels and do not reach another edge. An extension that stops at a change
 /// leaves out its last pixel (it may straddle the change). After the merge,
 /// [`crate::merge::remove_disputed_extensions`] removes those that a nearby depth
 /// contradicts (an extension across an occluding edge that showed no change).
@@ -488,7 +488,11 @@ impl LineLight<'_> {
         axis_index(self.axis, self.line, s as usize, self.width)
     }
 
+    /// The linear colour at position `s`; black off the line.
     fn pixel(&self, s: isize) -> [f32; 3] {
+        if !self.inside(s) {
+            return [0.0; 3];
+        }
         self.linear.get(self.index(s)).copied().unwrap_or([0.0; 3])
     }
 }
