@@ -497,10 +497,12 @@ impl LineLight<'_> {
     }
 }
 
+/// A pixel's light: the sum of its linear channels.
 fn light(p: [f32; 3]) -> f32 {
     p[0] + p[1] + p[2]
 }
 
+/// Each channel's share of a pixel's light.
 fn chromaticity(p: [f32; 3]) -> [f32; 3] {
     let total = light(p).max(1e-6);
     p.map(|v| v / total)
@@ -633,10 +635,10 @@ fn lit_between(linear: &[[f32; 3]], index: impl Fn(usize) -> usize, a: f32, b: f
     if hi <= lo || lo < 0.0 {
         return true;
     }
-    let light = |s: usize| linear.get(index(s)).map_or(0.0, |p| p[0] + p[1] + p[2]);
+    let light_at = |s: usize| linear.get(index(s)).copied().map_or(0.0, light);
     let (lo, hi) = (lo as usize, hi as usize);
-    let floor = SHADOW_SHARE * light(lo).max(light(hi));
-    (lo + 1..hi).all(|s| light(s) >= floor)
+    let floor = SHADOW_SHARE * light_at(lo).max(light_at(hi));
+    (lo + 1..hi).all(|s| light_at(s) >= floor)
 }
 
 #[inline]

@@ -347,7 +347,7 @@ fn segment_line(input: &LineInput, line: usize, edges: &mut Vec<Edge>, sc: &mut 
     // parabolic sub-pixel refinement. Where stripes are wide enough, a maximum must
     // also top the strength two pixels out (a ripple on a stronger edge's flank is
     // no edge); narrower stripes put the next boundary's own peak there.
-    let shoulder = if period >= SHOULDER_MIN_PERIOD { 2 } else { 1 };
+    let shoulder_test = period >= SHOULDER_MIN_PERIOD;
     let mut s = 1;
     while s + 1 < len {
         if !ok(sc.flags[s]) {
@@ -363,7 +363,7 @@ fn segment_line(input: &LineInput, line: usize, edges: &mut Vec<Edge>, sc: &mut 
             let t = s as isize + k;
             t < 0 || t >= len as isize || sc.strength[t as usize] <= b
         };
-        if b >= MIN_EDGE_STRENGTH && b >= a && b > c && wider(-shoulder) && wider(shoulder) {
+        if b >= MIN_EDGE_STRENGTH && b >= a && b > c && (!shoulder_test || (wider(-2) && wider(2))) {
             // Sub-pixel position from the linear-light gradient: camera blur
             // acts on linear light, so a blurred step's linear gradient peaks
             // at the step while its log gradient leans to the darker side.
