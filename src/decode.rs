@@ -454,14 +454,14 @@ impl Decoder {
 /// take the coordinate the last stripe's width predicts, up to 0.85 of that width
 /// (short of where the unseen boundary is expected), while they keep the light
 /// ([`EXTEND_LIGHT_RATIO`]) and the colour ([`EXTEND_CHROMA`]) of the next stripe's
-/// first pixels and do not reach another edge. An extension that stops at a change
+/// second pixel and do not reach another edge. An extension that stops at a change
 /// leaves out its last pixel (it may straddle the change). After the merge,
 /// [`crate::merge::remove_disputed_extensions`] removes those that a nearby depth
 /// contradicts (an extension across an occluding edge that showed no change).
 pub const EXTEND_REACH: f32 = 0.85;
 
 /// Largest ratio, either way, between the light (sum of the linear channels) of an
-/// extended pixel and of the first pixel of its stripe: inside one stripe the
+/// extended pixel and of the second pixel of its stripe: inside one stripe the
 /// projector's colour is the same, so only the surface's shading and albedo change it,
 /// while another surface seen past an occluding edge shows another stripe.
 pub const EXTEND_LIGHT_RATIO: f32 = 1.3;
@@ -526,8 +526,13 @@ fn extend_stripe(line: &LineLight, a: &Edge, w: f32, d: isize, limit: Option<f32
     if start < SHADOW_SHARE * known {
         return;
     }
+    // The new stripe's light and colour are those of its second pixel: the first lies
+    // within a pixel of the boundary and carries some of the blurred light of the
+    // stripe before (as the reference it stopped most extensions a pixel or two in).
+    // The first pixel is taken whenever the second is.
     let second = if line.inside(first + d) { first + d } else { first };
-    let hue = chromaticity(line.pixel(second));
+    let reference = line.pixel(second);
+    let (level, hue) = (light(reference), chromaticity(reference));
     let mut n = 0;
     let stopped_at_change = loop {
         let s = first + d * n;
@@ -538,9 +543,8 @@ fn extend_stripe(line: &LineLight, a: &Edge, w: f32, d: isize, limit: Option<f32
             break true;
         }
         let p = line.pixel(s);
-        let l = light(p);
-        let c = chromaticity(p);
-        if l * EXTEND_LIGHT_RATIO < start || l > EXTEND_LIGHT_RATIO * start || (0..3).any(|k| (c[k] - hue[k]).abs() >= EXTEND_CHROMA) {
+        let (l, c) = (light(p), chromaticity(p));
+        if s != first && (l * EXTEND_LIGHT_RATIO < level || l > EXTEND_LIGHT_RATIO * level || (0..3).any(|k| (c[k] - hue[k]).abs() >= EXTEND_CHROMA)) {
             break true;
         }
         n += 1;

@@ -161,8 +161,18 @@ pub const DISPUTE_REACH: usize = 3;
 /// counted where `families` has bit k) and that a depth within [`DISPUTE_REACH`]
 /// contradicts (they differ by more than [`neighbour_tolerance`]): an extension past
 /// an occluding edge that showed no change takes the near surface's coordinate onto
-/// the far one (or the other way). All are judged on the depths as they were before
-/// any was removed (`removed` keeps the pixels to remove); returns how many were.
+/// the far one (or the other way). An extended pixel that another family measured
+/// too, in agreement (the merge kept both), is confirmed and stays: beside an
+/// occluding edge the surface beyond is always within reach, and without that
+/// exception the extensions on the near side of the edge went with the wrong ones.
+/// On the occluders scene (`eval`, two directions) keeping them took the coverage of
+/// the band around depth edges from 80.9 to 86.9 % with `loggrad` and from 82.6 to
+/// 90.3 % with `direct`. That includes pixels both families extended into: two
+/// extensions that agree looked as if they could be one mistake made twice (both
+/// continuing the near surface across the edge), but measured they are not (keeping
+/// them gave 773 more correct pixels for 12 more outliers with `loggrad`, 1001 for 13
+/// with `direct`). All are judged on the depths as they were before any was removed
+/// (`removed` keeps the pixels to remove); returns how many were.
 pub fn remove_disputed_extensions(depth: &mut [f32], families: &mut [u8], extended: &[&[u32]], width: usize, height: usize, removed: &mut Vec<u32>) -> usize {
     removed.clear();
     if depth.len() != width * height || families.len() != depth.len() {
@@ -173,7 +183,7 @@ pub fn remove_disputed_extensions(depth: &mut [f32], families: &mut [u8], extend
         for &i in pixels.iter() {
             let i = i as usize;
             let (Some(&z), Some(&f)) = (depth.get(i), families.get(i)) else { continue };
-            if z.is_nan() || f & (1 << k) == 0 {
+            if z.is_nan() || f != 1 << k {
                 continue;
             }
             let (x, y) = (i % width, i / width);
@@ -279,7 +289,7 @@ mod tests {
         let mut depth: Vec<f32> = (0..w * h).map(|i| if i % w < 8 { 700.0 } else { 800.0 }).collect();
         let mut families = vec![1u8; w * h];
         let mut ext0 = vec![false; w * h];
-        let ext1 = vec![false; w * h];
+        let mut ext1 = vec![false; w * h];
         for y in 0..h {
             depth[y * w + 8] = 700.5;
             ext0[y * w + 8] = true;
@@ -287,16 +297,24 @@ mod tests {
             families[y * w + 7] = 2;
             ext0[y * w + 7] = true;
         }
-        // On one row, family 1 alone measured the extended pixel.
+        // On one row, family 1 alone measured the extended pixel; on the next two,
+        // family 1 measured it too, in agreement (the merge kept both), without
+        // extending and by extending: both confirm the extension.
         families[2 * w + 8] = 2;
+        families[3 * w + 8] = 3;
+        families[4 * w + 8] = 3;
+        ext1[4 * w + 8] = true;
+        let before = families.clone();
         let mut removed = Vec::new();
         let list = |ext: &[bool]| (0..w * h).filter(|&i| ext[i]).map(|i| i as u32).collect::<Vec<u32>>();
         let n = remove_disputed_extensions(&mut depth, &mut families, &[&list(&ext0), &list(&ext1)], w, h, &mut removed);
-        assert_eq!(n, h - 1);
+        assert_eq!(n, h - 3);
         for y in 0..h {
             for x in 0..w {
-                let gone = x == 8 && y != 2;
-                assert_eq!(depth[y * w + x].is_nan(), gone, "pixel ({x}, {y})");
+                let i = y * w + x;
+                let gone = x == 8 && y < 2;
+                assert_eq!(depth[i].is_nan(), gone, "pixel ({x}, {y})");
+                assert_eq!(families[i], if gone { 0 } else { before[i] }, "families of ({x}, {y})");
             }
         }
     }

@@ -22,25 +22,27 @@ use stripelight::eval::hard::{condition, HardEval};
 /// 0.69 % outliers, bag 0.33 %, skin/clipped 0.40 %, wall/partial 0.14 %. Extending
 /// the decoded stretches into the stripes beyond their ends (`EXTEND_REACH` in
 /// `decode.rs`) raised the coverage of every row (occluders/world 90.6 -> 93.8 %) and the
-/// outliers of occluders/world from 0.49 to 0.62 %.
+/// outliers of occluders/world from 0.49 to 0.62 %. Reading the new stripe's light
+/// from its second pixel and keeping extensions another family confirms raised every
+/// row's coverage again (occluders/world 93.8 -> 94.3 %, occluders/wide 86.1 -> 87.5 %).
 const MEASURED: &[(&str, &str, f64, f64)] = &[
-    ("colorchecker", "default", 0.8438, 0.0023),
-    ("sphere-dye", "default", 0.8116, 0.0019),
-    ("paper-dye", "default", 0.7588, 0.0118),
-    ("bag", "default", 0.5415, 0.0013),
+    ("colorchecker", "default", 0.8531, 0.0024),
+    ("sphere-dye", "default", 0.8166, 0.0021),
+    ("paper-dye", "default", 0.7720, 0.0115),
+    ("bag", "default", 0.5436, 0.0014),
     // 4:2:0 and JPEG: 1.23 % outliers before the boundaries were refined with the
     // frame's luma (and a chain's one thrown position mended).
-    ("paper", "webcam", 0.9424, 0.0089),
-    ("skin", "clipped", 0.9507, 0.0019),
-    ("wall", "partial", 0.9982, 0.0001),
-    ("occluders", "world", 0.9375, 0.0062),
+    ("paper", "webcam", 0.9472, 0.0086),
+    ("skin", "clipped", 0.9568, 0.0018),
+    ("wall", "partial", 0.9991, 0.0002),
+    ("occluders", "world", 0.9431, 0.0065),
     // 25-pixel stripes: a cast shadow between two stripes' edges was bridged as one
     // stripe (15.8 % outliers before the decoder compared a stripe's light with its
     // neighbours').
-    ("occluders", "wide", 0.8609, 0.0467),
+    ("occluders", "wide", 0.8751, 0.0448),
     // 3-pixel stripes: 58.3 % coverage and 1.77 % outliers before a boundary's
     // strength stopped having to top the strength two pixels out at that width.
-    ("wood", "narrow", 0.9520, 0.0011),
+    ("wood", "narrow", 0.9590, 0.0015),
 ];
 
 both_targets! {

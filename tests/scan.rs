@@ -182,16 +182,16 @@ mod native {
     }
 
     /// The paper's second claim: near depth discontinuities two directions cover
-    /// clearly more than one: 7 points more with `loggrad` (issue 10's setting), 5 with
-    /// `direct`. Since decoded stretches are extended into the stripe beyond their
-    /// ends (`decode::EXTEND_REACH`), one direction covers much more of the band
-    /// itself (occluders, edge coverage, one / two directions: loggrad 60.6 / 79.4 % to
-    /// 70.7 / 81.9 %, direct 67.8 / 82.5 % to 77.9 / 84.1 %), so the margin left for
-    /// the second direction is smaller; with `direct` it fell under the 7 points this
-    /// test asked of both filters before.
+    /// clearly more than one: 7 points more. Since decoded stretches are extended into
+    /// the stripe beyond their ends (`decode::EXTEND_REACH`), one direction covers much
+    /// more of the band itself (occluders, edge coverage, one / two directions: loggrad
+    /// 60.6 / 79.4 % to 75.5 / 86.9 %, direct 67.8 / 82.5 % to 82.5 / 90.3 %); for a
+    /// while `direct` kept only 6 points (77.9 / 84.1 %), until an extension that the
+    /// other family confirms stopped being removed beside an occluding edge
+    /// (`merge::remove_disputed_extensions`).
     #[test]
     fn two_directions_cover_more_near_discontinuities() {
-        for (filter, margin) in [(FilterMode::LogGrad, 0.07), (FilterMode::Direct, 0.05)] {
+        for (filter, margin) in [(FilterMode::LogGrad, 0.07), (FilterMode::Direct, 0.07)] {
             let one = row("occluders", 1, filter).merged.edge_coverage;
             let two = row("occluders", 2, filter).merged.edge_coverage;
             assert!(two > one + margin, "{filter}: one direction {one:.3}, two {two:.3}");
