@@ -519,20 +519,20 @@ fn extend_stripe(line: &LineLight, a: &Edge, w: f32, d: isize, limit: Option<f32
     if !line.inside(first) || !out[line.index(first)].is_nan() {
         return;
     }
-    // The next stripe must not start in a shadow: its first pixel against the middle
-    // of the stripe decoded before it.
-    let start = light(line.pixel(first));
-    let known = light(line.pixel((a.pos - d as f32 * 0.5 * w).round() as isize));
-    if start < SHADOW_SHARE * known {
-        return;
-    }
     // The new stripe's light and colour are those of its second pixel: the first lies
     // within a pixel of the boundary and carries some of the blurred light of the
-    // stripe before (as the reference it stopped most extensions a pixel or two in).
-    // The first pixel is taken whenever the second is.
+    // stripe before (as the reference it stopped most extensions a pixel or two in, and
+    // beside a shadow it passes for lit). The first pixel is taken whenever the second
+    // is.
     let second = if line.inside(first + d) { first + d } else { first };
     let reference = line.pixel(second);
     let (level, hue) = (light(reference), chromaticity(reference));
+    // The next stripe must not be a shadow: its light against the middle of the
+    // stripe decoded before it.
+    let known = light(line.pixel((a.pos - d as f32 * 0.5 * w).round() as isize));
+    if level < SHADOW_SHARE * known {
+        return;
+    }
     let mut n = 0;
     let stopped_at_change = loop {
         let s = first + d * n;
@@ -842,12 +842,18 @@ mod tests {
         let (w, len) = (50, 50);
         let mut seg = Segmentation::default();
         seg.axis = Some(ScanAxis::Rows);
-        seg.lines = vec![vec![edge(10.3, 5), edge(18.3, 6), edge(40.5, -1)]; 2];
-        let mut linear = vec![[0.3f32; 3]; w * 2];
+        seg.lines = vec![vec![edge(10.3, 5), edge(18.3, 6), edge(40.5, -1)]; 3];
+        let mut linear = vec![[0.3f32; 3]; w * 3];
         for p in &mut linear[w + 21..w + len] {
             *p = [0.05; 3];
         }
-        let mut out = vec![0.0; w * 2];
+        // The third line's shadow starts right past the boundary, its first pixel half
+        // lit by the blur.
+        linear[2 * w + 19] = [0.15; 3];
+        for p in &mut linear[2 * w + 20..2 * w + len] {
+            *p = [0.05; 3];
+        }
+        let mut out = vec![0.0; w * 3];
         decoder.stripe_coords_into(&seg, &linear, w, 100.0, &mut out);
         let ext: Vec<bool> = (0..out.len()).map(|i| decoder.extended().contains(&(i as u32))).collect();
         for s in 11..=18 {
@@ -863,6 +869,9 @@ mod tests {
         assert!(ext[w + 19], "the shadowed line's first extended pixel");
         for s in 20..len {
             assert!(out[w + s].is_nan(), "pixel {s} of the shadowed line: {}", out[w + s]);
+        }
+        for s in 19..len {
+            assert!(out[2 * w + s].is_nan(), "pixel {s} of the line shadowed from the boundary: {}", out[2 * w + s]);
         }
     }
 }

@@ -26,9 +26,9 @@ use stripelight::eval::hard::{condition, HardEval};
 /// from its second pixel and keeping extensions another family confirms raised every
 /// row's coverage again (occluders/world 93.8 -> 94.3 %, occluders/wide 86.1 -> 87.5 %).
 const MEASURED: &[(&str, &str, f64, f64)] = &[
-    ("colorchecker", "default", 0.8531, 0.0024),
-    ("sphere-dye", "default", 0.8166, 0.0021),
-    ("paper-dye", "default", 0.7720, 0.0115),
+    ("colorchecker", "default", 0.8528, 0.0023),
+    ("sphere-dye", "default", 0.8165, 0.0021),
+    ("paper-dye", "default", 0.7721, 0.0115),
     ("bag", "default", 0.5436, 0.0014),
     // 4:2:0 and JPEG: 1.23 % outliers before the boundaries were refined with the
     // frame's luma (and a chain's one thrown position mended).
@@ -36,13 +36,17 @@ const MEASURED: &[(&str, &str, f64, f64)] = &[
     ("skin", "clipped", 0.9568, 0.0018),
     ("wall", "partial", 0.9991, 0.0002),
     ("occluders", "world", 0.9431, 0.0065),
+    // Partial light beside a cast shadow: with the extension's light read from the new
+    // stripe's second pixel but its shadow test still from the first (half lit by the
+    // blur), the stripes were extended into the cylinder's shadow (0.61 % outliers).
+    ("textured", "world", 0.9360, 0.0042),
     // 25-pixel stripes: a cast shadow between two stripes' edges was bridged as one
     // stripe (15.8 % outliers before the decoder compared a stripe's light with its
     // neighbours').
     ("occluders", "wide", 0.8751, 0.0448),
     // 3-pixel stripes: 58.3 % coverage and 1.77 % outliers before a boundary's
     // strength stopped having to top the strength two pixels out at that width.
-    ("wood", "narrow", 0.9590, 0.0015),
+    ("wood", "narrow", 0.9590, 0.0014),
 ];
 
 both_targets! {
