@@ -158,7 +158,7 @@ pub const DISPUTE_REACH: usize = 3;
 
 /// Remove the merged depths that some family's decoder only extended into
 /// (`extended[k]`: the pixels of family k's [`crate::decode::Decoder::extended`],
-/// counted where `families` has bit k) and that a depth within [`DISPUTE_REACH`]
+/// judged where the merge kept family k alone) and that a depth within [`DISPUTE_REACH`]
 /// contradicts (they differ by more than [`neighbour_tolerance`]): an extension past
 /// an occluding edge that showed no change takes the near surface's coordinate onto
 /// the far one (or the other way). An extended pixel that another family measured
@@ -195,9 +195,7 @@ pub fn remove_disputed_extensions(depth: &mut [f32], families: &mut [u8], extend
             }
         }
     }
-    // A pixel two families extended into is judged twice.
-    removed.sort_unstable();
-    removed.dedup();
+    // Each pixel is judged once: only for the one family that measured it.
     for &i in removed.iter() {
         depth[i as usize] = f32::NAN;
         families[i as usize] = 0;
