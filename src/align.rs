@@ -207,20 +207,18 @@ pub struct Aligner {
     /// suffix score after the edge with nothing labelled at or before it (`after_none`).
     none: Vec<f32>,
     after_none: Vec<f32>,
+    /// Per rank, the cost of the boundaries a step of `k` = 1..=[`MAX_MISSED`] + 1 ranks
+    /// from it skips where nothing is hidden (`missed`'s first row, differenced once
+    /// here rather than at every step; index `k`, 0 unused).
+    step_cost: Vec<[f32; MAX_MISSED + 2]>,
     /// Per-rank scratch, [`NONE`] between uses (`MAX_STEP` spare ranks at the end):
-    /// forward, the best score of reaching a rank from the previous edge's labels
-    /// (`reach`, with the period estimate of that step, `reach_pace`) and of keeping the
-    /// previous edge's label (`kept`, with its `kept_pos` and `kept_pace`), with the set
-    /// of ranks touched (`cand`); backward, the next edge's suffix scores (`stay`) and
-    /// evidence (`emitted`).
-    reach: Vec<f32>,
-    reach_pace: Vec<f32>,
-    kept: Vec<f32>,
-    kept_pos: Vec<f32>,
-    kept_pace: Vec<f32>,
+    /// forward, the best score of reaching a rank from the previous edge's labels and of
+    /// keeping the previous edge's label ([`Slot`]), with the set of ranks touched
+    /// (`cand`, one spare word for the ranges that cross a word's end); backward, the
+    /// next edge's suffix scores and evidence ([`BackSlot`]).
+    slots: Vec<Slot>,
     cand: Vec<u64>,
-    stay: Vec<f32>,
-    emitted: Vec<f32>,
+    back: Vec<BackSlot>,
     /// One edge's candidate labels before the beam.
     candidates: Vec<Label>,
 }
@@ -238,6 +236,41 @@ struct Label {
     last_pos: f32,
     /// That labelling's running estimate of the stripe period.
     pace: f32,
+}
+
+/// Forward scratch of one rank: what the steps from the previous edge's labels bring
+/// to it (one record, so that a step reads and writes one place).
+#[derive(Clone, Copy)]
+struct Slot {
+    /// The best score of reaching the rank from the previous edge's labels, and that
+    /// step's period estimate.
+    reach: f32,
+    reach_pace: f32,
+    /// The score of keeping the previous edge's label with this rank over a spurious
+    /// edge, with that label's last position and period estimate.
+    kept: f32,
+    kept_pos: f32,
+    kept_pace: f32,
+}
+
+impl Default for Slot {
+    fn default() -> Self {
+        Slot { reach: NONE, reach_pace: 0.0, kept: NONE, kept_pos: 0.0, kept_pace: 0.0 }
+    }
+}
+
+/// Backward scratch of one rank: the next edge's suffix score with the rank, and what
+/// that edge's evidence says of it.
+#[derive(Clone, Copy)]
+struct BackSlot {
+    stay: f32,
+    emitted: f32,
+}
+
+impl Default for BackSlot {
+    fn default() -> Self {
+        BackSlot { stay: NONE, emitted: NONE }
+    }
 }
 
 /// What the alignment of one run reads of each edge and of the pattern's appearance.
@@ -279,6 +312,7 @@ impl Aligner {
                 row[r + 1] = row[r] + if visible { MISSED_BITS } else { INVISIBLE_BITS };
             }
         }
+        let step_cost = (0..nr).map(|r| std::array::from_fn(|k| if k == 0 { 0.0 } else { missed[r + k] - missed[r + 1] })).collect();
         Aligner {
             rank_bit,
             lit,
@@ -287,14 +321,10 @@ impl Aligner {
             code_ranks,
             used,
             gain_of: std::array::from_fn(|m| (p / m.max(1) as f32).log2()),
-            reach: vec![NONE; spare],
-            reach_pace: vec![0.0; spare],
-            kept: vec![NONE; spare],
-            kept_pos: vec![0.0; spare],
-            kept_pace: vec![0.0; spare],
-            cand: vec![0; words],
-            stay: vec![NONE; spare],
-            emitted: vec![NONE; spare],
+            step_cost,
+            slots: vec![Slot::default(); spare],
+            cand: vec![0; words + 1],
+            back: vec![BackSlot::default(); spare],
             ..Default::default()
         }
     }
@@ -327,58 +357,74 @@ impl Aligner {
         let nr = self.rank_bit.len();
         let spare = nr + MAX_STEP + 1;
         let (masks, positions, period) = (run.masks, run.positions, run.period);
+        let n = masks.len();
         let pace_range = (PACE_RANGE.0 * period, PACE_RANGE.1 * period);
-        // The fields apart, so that the loops keep their slices in registers.
-        let Aligner {
-            rank_bit, lit, missed, words, code_ranks, used, gain, blind, jumps, start, labels, none, reach, reach_pace, kept, kept_pos, kept_pace, cand,
-            candidates, ..
-        } = self;
+        // The fields apart, and the tables as slices, so that the loops keep them in
+        // registers and the compiler sees their lengths.
+        let Aligner { rank_bit, lit, missed, step_cost, words, code_ranks, used, gain, blind, jumps, start, labels, none, slots, cand, candidates, .. } =
+            self;
+        let (rank_bit, lit, missed, step_cost, code_ranks, gain, blind) = (&rank_bit[..nr], &lit[..spare], &missed[..], &step_cost[..nr], &code_ranks[..], &gain[..n], &blind[..n]);
         let words = *words;
+        let (slots, cand) = (&mut slots[..spare], &mut cand[..words + 1]);
+        // The bits of the last word that are ranks (the rest are steps past the last).
+        let last_word = if nr % 64 == 0 { u64::MAX } else { (1 << (nr % 64)) - 1 };
         none.clear();
+        none.resize(n, 0.0);
+        jumps.clear();
+        jumps.resize(n, false);
         labels.clear();
         start.clear();
         // One edge's candidates, before the beam: at most every rank.
         candidates.resize(nr, Label::default());
-        let (reach, kept) = (&mut reach[..], &mut kept[..]);
+        let candidates = &mut candidates[..nr];
         let mut prev = 0..0;
         let mut prev_max = NONE;
         // The rank of the previous edge's best labelling (u32::MAX before the first).
         let mut prev_best = u32::MAX;
-        jumps.clear();
         for (i, &mask) in masks.iter().enumerate() {
             let edge = (mask as u64, gain[i]);
             let pos = positions[i];
             let prev_none = if i == 0 { 0.0 } else { none[i - 1] };
-            none.push(prev_none - SPURIOUS_BITS);
+            none[i] = prev_none - SPURIOUS_BITS;
             let both_blind = if i == 0 { 0 } else { blind[i - 1] & blind[i] };
-            for e in prev.clone() {
-                let Label { rank, last: v, last_pos: from_pos, pace: p, .. } = labels[e];
+            // The labels in decreasing rank: a rank is reached from the lower ranks, so
+            // the one-rank step, usually the best, comes first and the longer ones
+            // seldom need their spacing costed. Of equal scores the lowest rank's step
+            // wins (`>=`), as it would in increasing order with `>`.
+            for &Label { rank, last: v, last_pos: from_pos, pace: p, .. } in labels[prev.clone()].iter().rev() {
                 let r = rank as usize;
-                kept[r] = v - SPURIOUS_BITS;
-                kept_pos[r] = from_pos;
-                kept_pace[r] = p;
-                cand[r / 64] |= 1 << (r % 64);
+                let slot = &mut slots[r];
+                slot.kept = v - SPURIOUS_BITS;
+                slot.kept_pos = from_pos;
+                slot.kept_pace = p;
                 let gap = pos - from_pos;
                 let hidden = both_blind & lit[r];
-                // The spare entries past the last rank take the steps beyond it, which
-                // are never candidates.
-                for k in 1..=steps(hidden) {
-                    let t = r + k;
-                    let Some(cost) = skip_cost(missed, spare, hidden & lit[t], r, k) else { continue };
-                    // The spacing's cost only lowers a score: skipped where the step
-                    // cannot beat what reaches `t` already.
-                    let base = v - cost;
-                    let s = if base > reach[t] { base - spacing_bits(gap, k, p) } else { NONE };
-                    if s > reach[t] {
-                        reach[t] = s;
-                        let seen = gap / k as f32;
-                        let next = if p == UNKNOWN_PACE { seen } else { p + PACE_UPDATE * (seen - p) };
-                        // max then min, not clamp: a caller's period of 0 or less
-                        // must not panic.
-                        reach_pace[t] = next.max(pace_range.0).min(pace_range.1);
+                if hidden == 0 {
+                    // Ranks r..=r + MAX_MISSED + 1 are candidates (the spare bits past
+                    // the last rank are dropped when the candidates are read).
+                    let range = ((1u128 << (MAX_MISSED + 2)) - 1) << (r % 64);
+                    let w = r / 64;
+                    cand[w] |= range as u64;
+                    cand[w + 1] |= (range >> 64) as u64;
+                    if v == NONE {
+                        continue;
                     }
-                    if t < nr {
-                        cand[t / 64] |= 1 << (t % 64);
+                    let cost = &step_cost[r];
+                    for (k, slot) in slots[r + 1..r + 2 + MAX_MISSED].iter_mut().enumerate() {
+                        let k = k + 1;
+                        step(slot, v - cost[k], gap, k, p, pace_range);
+                    }
+                } else {
+                    cand[r / 64] |= 1 << (r % 64);
+                    for k in 1..=MAX_STEP {
+                        let t = r + k;
+                        let Some(cost) = skip_cost(missed, spare, hidden & lit[t], r, k) else { continue };
+                        if v != NONE {
+                            step(&mut slots[t], v - cost, gap, k, p, pace_range);
+                        }
+                        if t < nr {
+                            cand[t / 64] |= 1 << (t % 64);
+                        }
                     }
                 }
             }
@@ -392,7 +438,7 @@ impl Aligner {
                     t < nr && emit(rank_bit, edge, t) > 0.0
                 });
             let jump = i > 0 && !explained && jumpable(mask, *used);
-            jumps.push(jump);
+            jumps[i] = jump;
             let restart = if jump { max_f32(prev_none, prev_max - JUMP_BITS) } else { prev_none };
             let fresh = i == 0 || restart >= prev_max - BEAM_BITS;
             if fresh {
@@ -408,21 +454,26 @@ impl Aligner {
             let mut count = 0;
             let mut row_max = NONE;
             let mut best_rank = u32::MAX;
-            for (w, word) in cand.iter_mut().enumerate() {
+            cand[words - 1] &= last_word;
+            cand[words] = 0;
+            for (w, word) in cand[..words].iter_mut().enumerate() {
                 let mut bits = std::mem::take(word);
                 while bits != 0 {
                     let r = w * 64 + bits.trailing_zeros() as usize;
                     bits &= bits - 1;
-                    let (from, p) = if fresh && restart > reach[r] { (restart, UNKNOWN_PACE) } else { (reach[r], reach_pace[r]) };
+                    let slot = &mut slots[r];
+                    let (from, p) = if fresh && restart > slot.reach { (restart, UNKNOWN_PACE) } else { (slot.reach, slot.reach_pace) };
                     let here = from + emit(rank_bit, edge, r);
-                    let label = if here >= kept[r] {
+                    let label = if here >= slot.kept {
                         Label { rank: r as u32, labelled: here, last: here, last_pos: pos, pace: p }
                     } else {
-                        Label { rank: r as u32, labelled: here, last: kept[r], last_pos: kept_pos[r], pace: kept_pace[r] }
+                        Label { rank: r as u32, labelled: here, last: slot.kept, last_pos: slot.kept_pos, pace: slot.kept_pace }
                     };
-                    candidates[count] = label;
-                    reach[r] = NONE;
-                    kept[r] = NONE;
+                    slot.reach = NONE;
+                    slot.kept = NONE;
+                    if let Some(c) = candidates.get_mut(count) {
+                        *c = label;
+                    }
                     if label.last > row_max {
                         row_max = label.last;
                         best_rank = r as u32;
@@ -430,14 +481,17 @@ impl Aligner {
                     count += 1;
                 }
             }
-            for t in nr..reach.len() {
-                reach[t] = NONE;
+            // The steps past the last rank.
+            if labels[prev.clone()].last().is_some_and(|l| l.rank as usize + MAX_STEP >= nr) {
+                for slot in &mut slots[nr..] {
+                    slot.reach = NONE;
+                }
             }
             // Keep the ranks within the beam, in order.
             let floor = row_max - BEAM_BITS;
             let begin = labels.len();
             start.push(begin);
-            labels.extend(candidates[..count].iter().filter(|c| c.last >= floor));
+            labels.extend(candidates[..count.min(nr)].iter().filter(|c| c.last >= floor));
             prev = begin..labels.len();
             prev_max = row_max;
             prev_best = best_rank;
@@ -452,52 +506,69 @@ impl Aligner {
         let (masks, positions) = (run.masks, run.positions);
         let (n, nr) = (masks.len(), self.rank_bit.len());
         let spare = nr + MAX_STEP + 1;
-        self.after.clear();
-        self.after.resize(self.labels.len(), NONE);
-        self.after_none.clear();
-        self.after_none.resize(n, NONE);
-        for e in self.start[n - 1]..self.start[n] {
-            self.after[e] = 0.0;
+        let Aligner { rank_bit, lit, missed, step_cost, gain, blind, jumps, start, labels, after, after_none, back, .. } = self;
+        let (rank_bit, lit, missed, step_cost, gain, blind, jumps, start, labels) =
+            (&rank_bit[..nr], &lit[..spare], &missed[..], &step_cost[..nr], &gain[..n], &blind[..n], &jumps[..n], &start[..n + 1], &labels[..]);
+        let back = &mut back[..spare];
+        after.clear();
+        after.resize(labels.len(), NONE);
+        after_none.clear();
+        after_none.resize(n, NONE);
+        for a in &mut after[start[n - 1]..start[n]] {
+            *a = 0.0;
         }
-        self.after_none[n - 1] = 0.0;
+        after_none[n - 1] = 0.0;
         for i in (0..n - 1).rev() {
-            let edge = (masks[i + 1] as u64, self.gain[i + 1]);
-            let next = self.start[i + 1]..self.start[i + 2];
+            let edge = (masks[i + 1] as u64, gain[i + 1]);
+            let (here, next) = (start[i]..start[i + 1], start[i + 1]..start[i + 2]);
             let gap = positions[i + 1] - positions[i];
-            let both_blind = self.blind[i] & self.blind[i + 1];
+            let both_blind = blind[i] & blind[i + 1];
             let mut best_start = NONE;
-            for e in next.clone() {
-                let t = self.labels[e].rank as usize;
-                let emitted = emit(&self.rank_bit, edge, t);
-                self.stay[t] = self.after[e];
-                self.emitted[t] = emitted;
-                best_start = max_f32(best_start, emitted + self.after[e]);
+            let (before, later) = after.split_at_mut(next.start);
+            let later = &later[..next.len()];
+            for (l, &a) in labels[next.clone()].iter().zip(later) {
+                let t = l.rank as usize;
+                let emitted = emit(rank_bit, edge, t);
+                back[t] = BackSlot { stay: a, emitted };
+                best_start = max_f32(best_start, emitted + a);
             }
-            let jump = if self.jumps[i + 1] { best_start - JUMP_BITS } else { NONE };
-            for e in self.start[i]..self.start[i + 1] {
-                let Label { rank, pace: p, .. } = self.labels[e];
+            let jump = if jumps[i + 1] { best_start - JUMP_BITS } else { NONE };
+            for (&Label { rank, pace: p, .. }, a) in labels[here.clone()].iter().zip(&mut before[here]) {
                 let r = rank as usize;
-                let hidden = both_blind & self.lit[r];
-                let mut v = max_f32(self.stay[r] - SPURIOUS_BITS, jump);
-                for k in 1..=steps(hidden) {
-                    let t = r + k;
-                    if t < nr && self.emitted[t] != NONE {
-                        if let Some(cost) = skip_cost(&self.missed, spare, hidden & self.lit[t], r, k) {
-                            let base = self.emitted[t] - cost + self.stay[t];
+                let hidden = both_blind & lit[r];
+                let mut v = max_f32(back[r].stay - SPURIOUS_BITS, jump);
+                if hidden == 0 {
+                    // The spare ranks past the last are never emitted.
+                    let cost = &step_cost[r];
+                    for (k, b) in back[r + 1..r + 2 + MAX_MISSED].iter().enumerate() {
+                        let k = k + 1;
+                        if b.emitted != NONE {
+                            let base = b.emitted - cost[k] + b.stay;
                             if base > v {
                                 v = max_f32(v, base - spacing_bits(gap, k, p));
                             }
                         }
                     }
+                } else {
+                    for k in 1..=MAX_STEP {
+                        let t = r + k;
+                        let b = back[t];
+                        if t < nr && b.emitted != NONE {
+                            if let Some(cost) = skip_cost(missed, spare, hidden & lit[t], r, k) {
+                                let base = b.emitted - cost + b.stay;
+                                if base > v {
+                                    v = max_f32(v, base - spacing_bits(gap, k, p));
+                                }
+                            }
+                        }
+                    }
                 }
-                self.after[e] = v;
+                *a = v;
             }
-            for e in next {
-                let t = self.labels[e].rank as usize;
-                self.stay[t] = NONE;
-                self.emitted[t] = NONE;
+            for l in &labels[next] {
+                back[l.rank as usize] = BackSlot::default();
             }
-            self.after_none[i] = max_f32(self.after_none[i + 1] - SPURIOUS_BITS, best_start);
+            after_none[i] = max_f32(after_none[i + 1] - SPURIOUS_BITS, best_start);
         }
     }
 
@@ -539,6 +610,26 @@ impl Aligner {
     }
 }
 
+/// A step of `k` ranks, from a label whose score less the boundaries skipped is `base`,
+/// to the rank whose forward scratch is `slot`, `gap` pixels on at the label's period
+/// estimate `pace`: it replaces what reaches the rank when at least as good (the labels
+/// come in decreasing rank, so of equal scores the lowest rank's step stays).
+#[inline(always)]
+fn step(slot: &mut Slot, base: f32, gap: f32, k: usize, pace: f32, pace_range: (f32, f32)) {
+    // The spacing's cost only lowers a score: skipped where the step cannot beat what
+    // reaches the rank already.
+    if base >= slot.reach {
+        let s = base - spacing_bits(gap, k, pace);
+        if s >= slot.reach {
+            slot.reach = s;
+            let seen = gap / k as f32;
+            let next = if pace == UNKNOWN_PACE { seen } else { pace + PACE_UPDATE * (seen - pace) };
+            // max then min, not clamp: a caller's period of 0 or less must not panic.
+            slot.reach_pace = next.max(pace_range.0).min(pace_range.1);
+        }
+    }
+}
+
 /// What the evidence of an edge (compatible codes, information) says of rank `r`,
 /// whose code has bit `rank_bit[r]`.
 #[inline]
@@ -558,17 +649,6 @@ fn emit(rank_bit: &[u8], (mask, gain): (u64, f32), r: usize) -> f32 {
 #[inline]
 fn jumpable(mask: u32, used: u32) -> bool {
     (mask & used).count_ones() <= JUMP_MAX_CODES
-}
-
-/// How many ranks a step may cross when the channels `hidden` are unreadable at both of
-/// its edges by the surface's doing.
-#[inline]
-fn steps(hidden: u8) -> usize {
-    if hidden == 0 {
-        MAX_MISSED + 1
-    } else {
-        MAX_STEP
-    }
 }
 
 /// The cost of the boundaries a step from rank `r` to rank `r + k` skips, with the
