@@ -198,15 +198,16 @@ pub struct Aligner {
     blind: Vec<u8>,
     /// Per edge, whether a labelling may jump to it (see [`JUMP_BITS`]).
     jumps: Vec<bool>,
-    /// The labels carried on, edge after edge: edge `i`'s are `start[i]..start[i + 1]`,
-    /// with the best suffix score after the edge given each one's last label (`after`).
+    /// The labels carried on, edge after edge: edge `i`'s are `start[i]..start[i + 1]`.
     start: Vec<usize>,
     labels: Vec<Label>,
-    after: Vec<f32>,
     /// Per edge, the best prefix score with nothing labelled yet (`none`), and the best
     /// suffix score after the edge with nothing labelled at or before it (`after_none`).
     none: Vec<f32>,
     after_none: Vec<f32>,
+    /// Per edge, its best and second best whole-run scores by rank and the best of its
+    /// keeping a label of the previous edge over being spurious itself ([`Verdict`]).
+    verdicts: Vec<Verdict>,
     /// Per rank, the cost of the boundaries a step of `k` = 1..=[`MAX_MISSED`] + 1 ranks
     /// from it skips where nothing is hidden (`missed`'s first row, differenced once
     /// here rather than at every step; index `k`, 0 unused).
@@ -215,7 +216,8 @@ pub struct Aligner {
     /// forward, the best score of reaching a rank from the previous edge's labels and of
     /// keeping the previous edge's label ([`Slot`]), with the set of ranks touched
     /// (`cand`, one spare word for the ranges that cross a word's end); backward, the
-    /// next edge's suffix scores and evidence ([`BackSlot`]).
+    /// next edge's suffix scores and evidence ([`BackSlot`]), and the same of this
+    /// edge's labels for the step to the edge before (`back`'s halves, in turn).
     slots: Vec<Slot>,
     cand: Vec<u64>,
     back: Vec<BackSlot>,
@@ -273,6 +275,40 @@ impl Default for BackSlot {
     }
 }
 
+/// What decides an edge, gathered by the backward pass.
+#[derive(Clone, Copy)]
+struct Verdict {
+    /// The best whole-run score of a labelling that labels the edge, its rank
+    /// (`u32::MAX` for none), and the second best score of another rank.
+    best: f32,
+    second: f32,
+    rank: u32,
+    /// The best whole-run score with the edge spurious and a label of the previous edge
+    /// kept over it ([`NONE`] for none).
+    kept: f32,
+}
+
+impl Default for Verdict {
+    fn default() -> Self {
+        Verdict { best: NONE, second: NONE, rank: u32::MAX, kept: NONE }
+    }
+}
+
+impl Verdict {
+    /// Weigh one label of the edge, whose whole-run score is `s`, in rank order (of
+    /// equal scores the first stays best).
+    #[inline(always)]
+    fn weigh(&mut self, s: f32, rank: u32) {
+        if s > self.best {
+            self.second = self.best;
+            self.best = s;
+            self.rank = rank;
+        } else if s > self.second {
+            self.second = s;
+        }
+    }
+}
+
 /// What the alignment of one run reads of each edge and of the pattern's appearance.
 #[derive(Clone, Copy)]
 pub struct RunInput<'a> {
@@ -324,7 +360,7 @@ impl Aligner {
             step_cost,
             slots: vec![Slot::default(); spare],
             cand: vec![0; words + 1],
-            back: vec![BackSlot::default(); spare],
+            back: vec![BackSlot::default(); 2 * spare],
             ..Default::default()
         }
     }
@@ -410,8 +446,12 @@ impl Aligner {
                         continue;
                     }
                     let cost = &step_cost[r];
-                    for (k, slot) in slots[r + 1..r + 2 + MAX_MISSED].iter_mut().enumerate() {
-                        let k = k + 1;
+                    let Some((first, longer)) = slots[r + 1..r + 2 + MAX_MISSED].split_first_mut() else { continue };
+                    // Nothing reaches `r + 1` before the one-rank step: the labels above
+                    // `r` reach only above `r + 1`.
+                    land(first, v - cost[1] - spacing_bits(gap, 1, p), gap, 1, p, pace_range);
+                    for (k, slot) in longer.iter_mut().enumerate() {
+                        let k = k + 2;
                         step(slot, v - cost[k], gap, k, p, pace_range);
                     }
                 } else {
@@ -502,45 +542,52 @@ impl Aligner {
     /// Suffix scores, from the last edge back: for each label of an edge, the best of
     /// keeping it over a spurious next edge and of stepping to a label of the next edge
     /// (the step's spacing measured from this edge, at the label's period estimate).
+    /// Each label's whole-run score goes straight into its edge's [`Verdict`], so the
+    /// suffix scores live only in the per-rank scratch of the two edges at hand.
     fn backward(&mut self, run: RunInput) {
         let (masks, positions) = (run.masks, run.positions);
         let (n, nr) = (masks.len(), self.rank_bit.len());
         let spare = nr + MAX_STEP + 1;
-        let Aligner { rank_bit, lit, missed, step_cost, gain, blind, jumps, start, labels, after, after_none, back, .. } = self;
+        let Aligner { rank_bit, lit, missed, step_cost, gain, blind, jumps, start, labels, after_none, verdicts, back, .. } = self;
         let (rank_bit, lit, missed, step_cost, gain, blind, jumps, start, labels) =
             (&rank_bit[..nr], &lit[..spare], &missed[..], &step_cost[..nr], &gain[..n], &blind[..n], &jumps[..n], &start[..n + 1], &labels[..]);
-        let back = &mut back[..spare];
-        after.clear();
-        after.resize(labels.len(), NONE);
+        // `next` holds the next edge's labels, `here` this edge's for the edge before.
+        let (mut next, mut here) = back[..2 * spare].split_at_mut(spare);
         after_none.clear();
         after_none.resize(n, NONE);
-        for a in &mut after[start[n - 1]..start[n]] {
-            *a = 0.0;
+        verdicts.clear();
+        verdicts.resize(n, Verdict::default());
+        // The last edge: nothing after it.
+        let edge = (masks[n - 1] as u64, gain[n - 1]);
+        let mut best_start = NONE;
+        let mut verdict = Verdict::default();
+        for l in &labels[start[n - 1]..start[n]] {
+            let emitted = emit(rank_bit, edge, l.rank as usize);
+            next[l.rank as usize] = BackSlot { stay: 0.0, emitted };
+            best_start = max_f32(best_start, emitted + 0.0);
+            verdict.weigh(l.labelled + 0.0, l.rank);
         }
+        verdicts[n - 1] = verdict;
         after_none[n - 1] = 0.0;
         for i in (0..n - 1).rev() {
-            let edge = (masks[i + 1] as u64, gain[i + 1]);
-            let (here, next) = (start[i]..start[i + 1], start[i + 1]..start[i + 2]);
+            let edge = (masks[i] as u64, gain[i]);
             let gap = positions[i + 1] - positions[i];
             let both_blind = blind[i] & blind[i + 1];
-            let mut best_start = NONE;
-            let (before, later) = after.split_at_mut(next.start);
-            let later = &later[..next.len()];
-            for (l, &a) in labels[next.clone()].iter().zip(later) {
-                let t = l.rank as usize;
-                let emitted = emit(rank_bit, edge, t);
-                back[t] = BackSlot { stay: a, emitted };
-                best_start = max_f32(best_start, emitted + a);
-            }
             let jump = if jumps[i + 1] { best_start - JUMP_BITS } else { NONE };
-            for (&Label { rank, pace: p, .. }, a) in labels[here.clone()].iter().zip(&mut before[here]) {
+            let mut verdict = Verdict::default();
+            let mut kept = NONE;
+            let mut start_here = NONE;
+            for &Label { rank, labelled, last, pace: p, .. } in &labels[start[i]..start[i + 1]] {
                 let r = rank as usize;
                 let hidden = both_blind & lit[r];
-                let mut v = max_f32(back[r].stay - SPURIOUS_BITS, jump);
+                let stay = next[r].stay;
+                // The next edge spurious, this label kept over it.
+                kept = max_f32(kept, last - SPURIOUS_BITS + stay);
+                let mut v = max_f32(stay - SPURIOUS_BITS, jump);
                 if hidden == 0 {
                     // The spare ranks past the last are never emitted.
                     let cost = &step_cost[r];
-                    for (k, b) in back[r + 1..r + 2 + MAX_MISSED].iter().enumerate() {
+                    for (k, b) in next[r + 1..r + 2 + MAX_MISSED].iter().enumerate() {
                         let k = k + 1;
                         if b.emitted != NONE {
                             let base = b.emitted - cost[k] + b.stay;
@@ -552,7 +599,7 @@ impl Aligner {
                 } else {
                     for k in 1..=MAX_STEP {
                         let t = r + k;
-                        let b = back[t];
+                        let b = next[t];
                         if t < nr && b.emitted != NONE {
                             if let Some(cost) = skip_cost(missed, spare, hidden & lit[t], r, k) {
                                 let base = b.emitted - cost + b.stay;
@@ -563,48 +610,35 @@ impl Aligner {
                         }
                     }
                 }
-                *a = v;
+                verdict.weigh(labelled + v, rank);
+                let emitted = emit(rank_bit, edge, r);
+                here[r] = BackSlot { stay: v, emitted };
+                start_here = max_f32(start_here, emitted + v);
             }
-            for l in &labels[next] {
-                back[l.rank as usize] = BackSlot::default();
-            }
+            verdicts[i] = verdict;
+            verdicts[i + 1].kept = kept;
             after_none[i] = max_f32(after_none[i + 1] - SPURIOUS_BITS, best_start);
+            for l in &labels[start[i + 1]..start[i + 2]] {
+                next[l.rank as usize] = BackSlot::default();
+            }
+            std::mem::swap(&mut next, &mut here);
+            best_start = start_here;
+        }
+        for l in &labels[start[0]..start[1]] {
+            next[l.rank as usize] = BackSlot::default();
         }
     }
 
-    /// Decisions from the best whole-run score of each label of each edge (and of its
-    /// being spurious).
+    /// Decisions from the best whole-run score of each edge's labels (and of its being
+    /// spurious).
     fn decide(&self, out: &mut [i32]) {
-        for (i, o) in out.iter_mut().enumerate() {
-            let here = self.start[i]..self.start[i + 1];
-            let mut spurious = if i == 0 { 0.0 } else { self.none[i - 1] } - SPURIOUS_BITS + self.after_none[i];
-            if i > 0 {
-                // Labels of the previous edge that this one keeps: both lists are in
-                // increasing rank.
-                let mut e = here.start;
-                for p in self.start[i - 1]..self.start[i] {
-                    let r = self.labels[p].rank;
-                    while e < here.end && self.labels[e].rank < r {
-                        e += 1;
-                    }
-                    if e < here.end && self.labels[e].rank == r {
-                        spurious = max_f32(spurious, self.labels[p].last - SPURIOUS_BITS + self.after[e]);
-                    }
-                }
-            }
-            let (mut best, mut second, mut best_r) = (NONE, NONE, u32::MAX);
-            for e in here {
-                let s = self.labels[e].labelled + self.after[e];
-                if s > best {
-                    second = best;
-                    best = s;
-                    best_r = self.labels[e].rank;
-                } else if s > second {
-                    second = s;
-                }
-            }
-            if best_r != u32::MAX && best - second >= ACCEPT_BITS && best - spurious >= SPURIOUS_MARGIN_BITS {
-                *o = best_r as i32;
+        for (i, (o, v)) in out.iter_mut().zip(&self.verdicts).enumerate() {
+            let spurious = if i == 0 { 0.0 } else { self.none[i - 1] } - SPURIOUS_BITS + self.after_none[i];
+            // With a label of the previous edge kept over it (`kept` is NONE on the
+            // first edge).
+            let spurious = max_f32(spurious, v.kept);
+            if v.rank != u32::MAX && v.best - v.second >= ACCEPT_BITS && v.best - spurious >= SPURIOUS_MARGIN_BITS {
+                *o = v.rank as i32;
             }
         }
     }
@@ -621,13 +655,24 @@ fn step(slot: &mut Slot, base: f32, gap: f32, k: usize, pace: f32, pace_range: (
     if base >= slot.reach {
         let s = base - spacing_bits(gap, k, pace);
         if s >= slot.reach {
-            slot.reach = s;
-            let seen = gap / k as f32;
-            let next = if pace == UNKNOWN_PACE { seen } else { pace + PACE_UPDATE * (seen - pace) };
-            // max then min, not clamp: a caller's period of 0 or less must not panic.
-            slot.reach_pace = next.max(pace_range.0).min(pace_range.1);
+            land(slot, s, gap, k, pace, pace_range);
         }
     }
+}
+
+/// A step of `k` ranks with the score `s` reaches the rank whose forward scratch is
+/// `slot` (see [`step`]): the score, and the period estimate updated with the step.
+#[inline(always)]
+fn land(slot: &mut Slot, s: f32, gap: f32, k: usize, pace: f32, (lo, hi): (f32, f32)) {
+    slot.reach = s;
+    let seen = gap / k as f32;
+    let next = if pace == UNKNOWN_PACE { seen } else { pace + PACE_UPDATE * (seen - pace) };
+    // max then min, not clamp: a caller's period of 0 or less must not panic. As
+    // comparisons, not `f32::max` and `f32::min` (which handle NaN with more
+    // instructions, and in WebAssembly a call): the same values for any period that
+    // is a number, a NaN estimate giving `lo` as `f32::max` does.
+    let above = if next >= lo { next } else { lo };
+    slot.reach_pace = if above <= hi { above } else { hi };
 }
 
 /// What the evidence of an edge (compatible codes, information) says of rank `r`,
