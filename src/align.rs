@@ -221,8 +221,6 @@ pub struct Aligner {
     slots: Vec<Slot>,
     cand: Vec<u64>,
     back: Vec<BackSlot>,
-    /// One edge's candidate labels before the beam.
-    candidates: Vec<Label>,
 }
 
 /// One label an edge carries on (one record, so that keeping it is one copy).
@@ -397,7 +395,7 @@ impl Aligner {
         let pace_range = (PACE_RANGE.0 * period, PACE_RANGE.1 * period);
         // The fields apart, and the tables as slices, so that the loops keep them in
         // registers and the compiler sees their lengths.
-        let Aligner { rank_bit, lit, missed, step_cost, words, code_ranks, used, gain, blind, jumps, start, labels, none, slots, cand, candidates, .. } =
+        let Aligner { rank_bit, lit, missed, step_cost, words, code_ranks, used, gain, blind, jumps, start, labels, none, slots, cand, .. } =
             self;
         let (rank_bit, lit, missed, step_cost, code_ranks, gain, blind) = (&rank_bit[..nr], &lit[..spare], &missed[..], &step_cost[..nr], &code_ranks[..], &gain[..n], &blind[..n]);
         let words = *words;
@@ -408,11 +406,11 @@ impl Aligner {
         none.resize(n, 0.0);
         jumps.clear();
         jumps.resize(n, false);
-        labels.clear();
+        // `labels` is used up to `len`; past it, room for one edge's candidates (every
+        // rank at most), written in place and then thinned to the beam. The table only
+        // grows, so no call writes it twice.
+        let mut len = 0;
         start.clear();
-        // One edge's candidates, before the beam: at most every rank.
-        candidates.resize(nr, Label::default());
-        let candidates = &mut candidates[..nr];
         let mut prev = 0..0;
         let mut prev_max = NONE;
         // The rank of the previous edge's best labelling (u32::MAX before the first).
@@ -479,7 +477,7 @@ impl Aligner {
                 });
             let jump = i > 0 && !explained && jumpable(mask, *used);
             jumps[i] = jump;
-            let restart = if jump { max_f32(prev_none, prev_max - JUMP_BITS) } else { prev_none };
+            let restart = if jump { better(prev_none, prev_max - JUMP_BITS) } else { prev_none };
             let fresh = i == 0 || restart >= prev_max - BEAM_BITS;
             if fresh {
                 let mut m = mask & ((1 << 27) - 1);
@@ -491,6 +489,10 @@ impl Aligner {
                     }
                 }
             }
+            if labels.len() < len + nr {
+                labels.resize(len + nr, Label::default());
+            }
+            let candidates = &mut labels[len..len + nr];
             let mut count = 0;
             let mut row_max = NONE;
             let mut best_rank = u32::MAX;
@@ -521,22 +523,29 @@ impl Aligner {
                     count += 1;
                 }
             }
+            // Keep the ranks within the beam, in order.
+            let floor = row_max - BEAM_BITS;
+            let mut kept = 0;
+            for j in 0..count.min(nr) {
+                let c = candidates[j];
+                if c.last >= floor {
+                    candidates[kept] = c;
+                    kept += 1;
+                }
+            }
             // The steps past the last rank.
             if labels[prev.clone()].last().is_some_and(|l| l.rank as usize + MAX_STEP >= nr) {
                 for slot in &mut slots[nr..] {
                     slot.reach = NONE;
                 }
             }
-            // Keep the ranks within the beam, in order.
-            let floor = row_max - BEAM_BITS;
-            let begin = labels.len();
-            start.push(begin);
-            labels.extend(candidates[..count.min(nr)].iter().filter(|c| c.last >= floor));
-            prev = begin..labels.len();
+            start.push(len);
+            prev = len..len + kept;
+            len += kept;
             prev_max = row_max;
             prev_best = best_rank;
         }
-        start.push(labels.len());
+        start.push(len);
     }
 
     /// Suffix scores, from the last edge back: for each label of an edge, the best of
@@ -564,7 +573,7 @@ impl Aligner {
         for l in &labels[start[n - 1]..start[n]] {
             let emitted = emit(rank_bit, edge, l.rank as usize);
             next[l.rank as usize] = BackSlot { stay: 0.0, emitted };
-            best_start = max_f32(best_start, emitted + 0.0);
+            best_start = better(best_start, emitted + 0.0);
             verdict.weigh(l.labelled + 0.0, l.rank);
         }
         verdicts[n - 1] = verdict;
@@ -582,8 +591,8 @@ impl Aligner {
                 let hidden = both_blind & lit[r];
                 let stay = next[r].stay;
                 // The next edge spurious, this label kept over it.
-                kept = max_f32(kept, last - SPURIOUS_BITS + stay);
-                let mut v = max_f32(stay - SPURIOUS_BITS, jump);
+                kept = better(kept, last - SPURIOUS_BITS + stay);
+                let mut v = better(stay - SPURIOUS_BITS, jump);
                 if hidden == 0 {
                     // The spare ranks past the last are never emitted.
                     let cost = &step_cost[r];
@@ -592,7 +601,7 @@ impl Aligner {
                         if b.emitted != NONE {
                             let base = b.emitted - cost[k] + b.stay;
                             if base > v {
-                                v = max_f32(v, base - spacing_bits(gap, k, p));
+                                v = better(v, base - spacing_bits(gap, k, p));
                             }
                         }
                     }
@@ -604,7 +613,7 @@ impl Aligner {
                             if let Some(cost) = skip_cost(missed, spare, hidden & lit[t], r, k) {
                                 let base = b.emitted - cost + b.stay;
                                 if base > v {
-                                    v = max_f32(v, base - spacing_bits(gap, k, p));
+                                    v = better(v, base - spacing_bits(gap, k, p));
                                 }
                             }
                         }
@@ -613,11 +622,11 @@ impl Aligner {
                 verdict.weigh(labelled + v, rank);
                 let emitted = emit(rank_bit, edge, r);
                 here[r] = BackSlot { stay: v, emitted };
-                start_here = max_f32(start_here, emitted + v);
+                start_here = better(start_here, emitted + v);
             }
             verdicts[i] = verdict;
             verdicts[i + 1].kept = kept;
-            after_none[i] = max_f32(after_none[i + 1] - SPURIOUS_BITS, best_start);
+            after_none[i] = better(after_none[i + 1] - SPURIOUS_BITS, best_start);
             for l in &labels[start[i + 1]..start[i + 2]] {
                 next[l.rank as usize] = BackSlot::default();
             }
@@ -636,7 +645,7 @@ impl Aligner {
             let spurious = if i == 0 { 0.0 } else { self.none[i - 1] } - SPURIOUS_BITS + self.after_none[i];
             // With a label of the previous edge kept over it (`kept` is NONE on the
             // first edge).
-            let spurious = max_f32(spurious, v.kept);
+            let spurious = better(spurious, v.kept);
             if v.rank != u32::MAX && v.best - v.second >= ACCEPT_BITS && v.best - spurious >= SPURIOUS_MARGIN_BITS {
                 *o = v.rank as i32;
             }
@@ -673,6 +682,19 @@ fn land(slot: &mut Slot, s: f32, gap: f32, k: usize, pace: f32, (lo, hi): (f32, 
     // is a number, a NaN estimate giving `lo` as `f32::max` does.
     let above = if next >= lo { next } else { lo };
     slot.reach_pace = if above <= hi { above } else { hi };
+}
+
+/// The larger of two scores. Scores are never NaN (no infinity but [`NONE`] is ever
+/// added to another), and for any other values this is [`max_f32`] (of equal values
+/// `a`, the sign of a zero included); written as `b > a`, it is one `maxss` natively
+/// where [`max_f32`]'s NaN rule takes a compare and a blend.
+#[inline(always)]
+fn better(a: f32, b: f32) -> f32 {
+    if b > a {
+        b
+    } else {
+        a
+    }
 }
 
 /// What the evidence of an edge (compatible codes, information) says of rank `r`,
