@@ -251,11 +251,29 @@ struct Slot {
     kept: f32,
     kept_pos: f32,
     kept_pace: f32,
+    /// The rank's code as a [`crate::segment::CodeMask`] bit (0 where it has none),
+    /// and what an edge whose evidence does not include it says of the rank
+    /// (-[`MISREAD_BITS`], [`NONE`] where it has no code): fixed, beside the scratch so
+    /// that a candidate's evidence is read from the record it is built from.
+    bit: u32,
+    miss: f32,
 }
 
 impl Default for Slot {
     fn default() -> Self {
-        Slot { reach: NONE, reach_pace: 0.0, kept: NONE, kept_pos: 0.0, kept_pace: 0.0 }
+        Slot { reach: NONE, reach_pace: 0.0, kept: NONE, kept_pos: 0.0, kept_pace: 0.0, bit: 0, miss: NONE }
+    }
+}
+
+impl Slot {
+    /// The same as [`emit`] for this slot's rank.
+    #[inline(always)]
+    fn emit(&self, (mask, gain): (u64, f32)) -> f32 {
+        if mask as u32 & self.bit != 0 {
+            gain
+        } else {
+            self.miss
+        }
     }
 }
 
@@ -347,6 +365,12 @@ impl Aligner {
             }
         }
         let step_cost = (0..nr).map(|r| std::array::from_fn(|k| if k == 0 { 0.0 } else { missed[r + k] - missed[r + 1] })).collect();
+        let slots = (0..spare)
+            .map(|r| match rank_bit.get(r) {
+                Some(&c) if c < 27 => Slot { bit: 1 << c, miss: -MISREAD_BITS, ..Slot::default() },
+                _ => Slot::default(),
+            })
+            .collect();
         Aligner {
             rank_bit,
             lit,
@@ -356,7 +380,7 @@ impl Aligner {
             used,
             gain_of: std::array::from_fn(|m| (p / m.max(1) as f32).log2()),
             step_cost,
-            slots: vec![Slot::default(); spare],
+            slots,
             cand: vec![0; words + 1],
             back: vec![BackSlot::default(); 2 * spare],
             ..Default::default()
@@ -505,7 +529,7 @@ impl Aligner {
                     bits &= bits - 1;
                     let slot = &mut slots[r];
                     let (from, p) = if fresh && restart > slot.reach { (restart, UNKNOWN_PACE) } else { (slot.reach, slot.reach_pace) };
-                    let here = from + emit(rank_bit, edge, r);
+                    let here = from + slot.emit(edge);
                     let label = if here >= slot.kept {
                         Label { rank: r as u32, labelled: here, last: here, last_pos: pos, pace: p }
                     } else {
@@ -557,9 +581,9 @@ impl Aligner {
         let (masks, positions) = (run.masks, run.positions);
         let (n, nr) = (masks.len(), self.rank_bit.len());
         let spare = nr + MAX_STEP + 1;
-        let Aligner { rank_bit, lit, missed, step_cost, gain, blind, jumps, start, labels, after_none, verdicts, back, .. } = self;
-        let (rank_bit, lit, missed, step_cost, gain, blind, jumps, start, labels) =
-            (&rank_bit[..nr], &lit[..spare], &missed[..], &step_cost[..nr], &gain[..n], &blind[..n], &jumps[..n], &start[..n + 1], &labels[..]);
+        let Aligner { lit, missed, step_cost, gain, blind, jumps, start, labels, after_none, verdicts, slots, back, .. } = self;
+        let (slots, lit, missed, step_cost, gain, blind, jumps, start, labels) =
+            (&slots[..spare], &lit[..spare], &missed[..], &step_cost[..nr], &gain[..n], &blind[..n], &jumps[..n], &start[..n + 1], &labels[..]);
         // `next` holds the next edge's labels, `here` this edge's for the edge before.
         let (mut next, mut here) = back[..2 * spare].split_at_mut(spare);
         after_none.clear();
@@ -571,7 +595,7 @@ impl Aligner {
         let mut best_start = NONE;
         let mut verdict = Verdict::default();
         for l in &labels[start[n - 1]..start[n]] {
-            let emitted = emit(rank_bit, edge, l.rank as usize);
+            let emitted = slots[l.rank as usize].emit(edge);
             next[l.rank as usize] = BackSlot { stay: 0.0, emitted };
             best_start = better(best_start, emitted + 0.0);
             verdict.weigh(l.labelled + 0.0, l.rank);
@@ -620,7 +644,7 @@ impl Aligner {
                     }
                 }
                 verdict.weigh(labelled + v, rank);
-                let emitted = emit(rank_bit, edge, r);
+                let emitted = slots[r].emit(edge);
                 here[r] = BackSlot { stay: v, emitted };
                 start_here = better(start_here, emitted + v);
             }
