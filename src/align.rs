@@ -460,10 +460,12 @@ impl Aligner {
                 if hidden == 0 {
                     // Ranks r..=r + MAX_MISSED + 1 are candidates (the spare bits past
                     // the last rank are dropped when the candidates are read).
-                    let range = ((1u128 << (MAX_MISSED + 2)) - 1) << (r % 64);
-                    let w = r / 64;
-                    cand[w] |= range as u64;
-                    cand[w + 1] |= (range >> 64) as u64;
+                    // (Two 64-bit words, not a u128: WebAssembly shifts those by a call.)
+                    let (range, w, shift) = ((1u64 << (MAX_MISSED + 2)) - 1, r / 64, r % 64);
+                    cand[w] |= range << shift;
+                    // What crosses into the next word, `range >> (64 - shift)`, in two
+                    // shifts so that a shift of 0 carries nothing.
+                    cand[w + 1] |= range >> 1 >> (63 - shift);
                     if v == NONE {
                         continue;
                     }
