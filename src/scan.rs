@@ -550,6 +550,7 @@ impl Scanner {
             *e = decoder.extended();
         }
         let extended = &extended[..self.decoders.len().min(3)];
+        merge::resolve_disputes(&r.family_depth, r.depth.pixels_mut(), &mut self.merged_families, w, h, &mut self.rim);
         merge::remove_disputed_extensions(r.depth.pixels_mut(), &mut self.merged_families, extended, w, h, &mut self.rim);
         merge::remove_rim(r.depth.pixels_mut(), &mut self.merged_families, self.linear.pixels(), w, h, &mut self.rim);
         merge::remove_isolated(r.depth.pixels_mut(), w, h, &mut self.scratch);
