@@ -10,7 +10,7 @@
 //! projector's light: on the border of the decoded region and much darker than its
 //! decoded neighbours ([`remove_rim`]; the lens blur carries the stripes about a pixel
 //! into shadows). Where the families disagree over a connected region, the one whose
-//! depths continue the agreeing pixels around it settles it ([`resolve_disputes`]).
+//! depths agree with the decoded pixels around it settles it ([`resolve_disputes`]).
 //! Finally points without enough support from their neighbours are
 //! removed (an isolated depth is almost always a wrong identity).
 
@@ -117,18 +117,19 @@ pub const RESOLVE_MIN_BORDER: usize = 3;
 /// ([`agree_tolerance`]) with at least [`RESOLVE_SHARE`] of its border (the pairs of a
 /// disputed pixel and a decoded neighbour outside the region: where the families
 /// agreed, or one measured alone) while every other family agrees with at most
-/// [`RESOLVE_RIVAL_SHARE`] of it; other regions stay empty. (With only the agreeing
-/// pixels as the border, regions on a plank that the wrong family leaves sparse had
-/// too little border to be settled (wood, default: 94.5 % against 95.1 %), and some
-/// regions were settled wrongly that the wider border leaves empty (paper, webcam:
-/// 0.93 % outliers against 0.86 %).) Where wood's grain runs along one family's stripes, that family
-/// reads the grain's edges as boundaries, and its depths there are off by a few
-/// millimetres to a stripe in patches that the other family measures continuously with
-/// the plank around them (wood, default: 10 745 lit pixels that one family had right
-/// were left empty by the merge). Along an occluding edge parallel to one family's
-/// stripes that family can continue the near surface onto the far one; the far
-/// surface's agreeing pixels then split the border and the region stays empty. `queue`
-/// is scratch. Returns how many pixels were settled.
+/// [`RESOLVE_RIVAL_SHARE`] of it; other regions stay empty.
+///
+/// Where wood's grain runs along one family's stripes, that family reads the grain's
+/// edges as boundaries, and its depths there are off by a few millimetres to a stripe
+/// in patches that the other family measures continuously with the plank around them
+/// (wood, default: 10 745 lit pixels that one family had right were left empty by the
+/// merge). Along an occluding edge parallel to one family's stripes that family can
+/// continue the near surface onto the far one; the far surface's pixels then split the
+/// border and the region stays empty. With only the agreeing pixels as the border,
+/// regions on a plank that the wrong family leaves sparse had too little border to be
+/// settled (wood, default: 94.5 % coverage against 95.1 %), and some regions were
+/// settled wrongly that the wider border leaves empty (paper, webcam: 0.93 % outliers
+/// against 0.86 %). `queue` is scratch. Returns how many pixels were settled.
 pub fn resolve_disputes<D: AsRef<[f32]>>(depths: &[D], depth: &mut [f32], families: &mut [u8], width: usize, height: usize, queue: &mut Vec<u32>) -> usize {
     queue.clear();
     let n = width * height;
