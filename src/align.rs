@@ -120,6 +120,7 @@ pub const SPURIOUS_MARGIN_BITS: f32 = 3.0;
 pub const BEAM_BITS: f32 = ACCEPT_BITS + 2.0;
 
 use crate::num::max_f32;
+use crate::segment::Tentative;
 
 const NONE: f32 = f32::NEG_INFINITY;
 
@@ -208,6 +209,8 @@ pub struct Aligner {
     /// Per edge, its best and second best whole-run scores by rank and the best of its
     /// keeping a label of the previous edge over being spurious itself ([`Verdict`]).
     verdicts: Vec<Verdict>,
+    /// Per edge, the verdict as [`Aligner::tentative`] gives it.
+    tentative: Vec<Tentative>,
     /// Per rank, the cost of the boundaries a step of `k` = 1..=[`MAX_MISSED`] + 1 ranks
     /// from it skips where nothing is hidden (`missed`'s first row, differenced once
     /// here rather than at every step; index `k`, 0 unused).
@@ -295,10 +298,11 @@ impl Default for BackSlot {
 #[derive(Clone, Copy)]
 struct Verdict {
     /// The best whole-run score of a labelling that labels the edge, its rank
-    /// (`u32::MAX` for none), and the second best score of another rank.
+    /// (`u32::MAX` for none), and the second best score of another rank with its rank.
     best: f32,
     second: f32,
     rank: u32,
+    second_rank: u32,
     /// The best whole-run score with the edge spurious and a label of the previous edge
     /// kept over it ([`NONE`] for none).
     kept: f32,
@@ -306,7 +310,7 @@ struct Verdict {
 
 impl Default for Verdict {
     fn default() -> Self {
-        Verdict { best: NONE, second: NONE, rank: u32::MAX, kept: NONE }
+        Verdict { best: NONE, second: NONE, rank: u32::MAX, second_rank: u32::MAX, kept: NONE }
     }
 }
 
@@ -317,10 +321,12 @@ impl Verdict {
     fn weigh(&mut self, s: f32, rank: u32) {
         if s > self.best {
             self.second = self.best;
+            self.second_rank = self.rank;
             self.best = s;
             self.rank = rank;
         } else if s > self.second {
             self.second = s;
+            self.second_rank = rank;
         }
     }
 }
@@ -393,6 +399,7 @@ impl Aligner {
         let n = run.masks.len();
         let nr = self.rank_bit.len();
         out.iter_mut().for_each(|o| *o = -1);
+        self.tentative.clear();
         if n == 0 || nr == 0 || run.positions.len() != n {
             return;
         }
@@ -666,16 +673,26 @@ impl Aligner {
 
     /// Decisions from the best whole-run score of each edge's labels (and of its being
     /// spurious).
-    fn decide(&self, out: &mut [i32]) {
+    fn decide(&mut self, out: &mut [i32]) {
+        self.tentative.clear();
         for (i, (o, v)) in out.iter_mut().zip(&self.verdicts).enumerate() {
             let spurious = if i == 0 { 0.0 } else { self.none[i - 1] } - SPURIOUS_BITS + self.after_none[i];
             // With a label of the previous edge kept over it (`kept` is NONE on the
             // first edge).
             let spurious = better(spurious, v.kept);
-            if v.rank != u32::MAX && v.best - v.second >= ACCEPT_BITS && v.best - spurious >= SPURIOUS_MARGIN_BITS {
+            let rank = |r: u32| if r == u32::MAX { -1 } else { r as i32 };
+            let (margin, spurious_margin) = (v.best - v.second, v.best - spurious);
+            self.tentative.push(Tentative { id: rank(v.rank), alt: rank(v.second_rank), margin, spurious_margin });
+            if v.rank != u32::MAX && margin >= ACCEPT_BITS && spurious_margin >= SPURIOUS_MARGIN_BITS {
                 *o = v.rank as i32;
             }
         }
+    }
+
+    /// Every edge's reading by the last [`Aligner::align`], taken or not, with ranks
+    /// (not identities) in its `id` and `alt`.
+    pub fn tentative(&self) -> &[Tentative] {
+        &self.tentative
     }
 }
 

@@ -6,7 +6,8 @@
 //! `1 / (dz/dq)²` (the least-squares point on the camera ray for the families' light
 //! planes, so the family that triangulates with more of the baseline counts more).
 //! Where they disagree, at least one identity is wrong and the pixel is dropped. A
-//! pixel measured by one family only is kept as it is, unless it is on the rim of the
+//! pixel measured by one family only is kept as it is, unless its identity came from
+//! its boundary's chain across lines alone ([`remove_unconfirmed`]) or it is on the rim of the
 //! projector's light: on the border of the decoded region and much darker than its
 //! decoded neighbours ([`remove_rim`]; the lens blur carries the stripes about a pixel
 //! into shadows). Where the families disagree over a connected region, the one whose
@@ -27,6 +28,24 @@ pub fn agree_tolerance(z: f32) -> f32 {
 /// which allows surfaces slanted up to about 75 degrees at the demo rig's resolution.
 pub fn neighbour_tolerance(z: f32) -> f32 {
     crate::num::max_f32(0.01 * z, 4.0)
+}
+
+/// Remove the pixels of family k listed in `weak[k]` (those whose stripe coordinate
+/// comes from a boundary labelled by its chain across lines alone,
+/// [`crate::decode::Decoder::weak`]) that no other family confirmed: the merge kept
+/// them with family k alone. Where a patch of dye ends on a stripe boundary, a chain
+/// can take a wrong identity with the votes of every line along it; another family,
+/// whose stripes cross that edge, rarely makes the same mistake at the same depth.
+pub fn remove_unconfirmed(depth: &mut [f32], families: &mut [u8], weak: &[&[u32]]) {
+    for (k, list) in weak.iter().enumerate() {
+        for &i in list.iter() {
+            let i = i as usize;
+            if families.get(i) == Some(&(1u8 << k)) {
+                depth[i] = f32::NAN;
+                families[i] = 0;
+            }
+        }
+    }
 }
 
 /// Of the 8 neighbours, at least this many must be on the same surface.
@@ -596,5 +615,17 @@ mod tests {
         remove_isolated(&mut d, 5, 5, &mut s);
         assert!(d[24].is_nan() && d[13].is_nan());
         assert_eq!(d[12], 700.0);
+    }
+
+    /// A weak pixel of family 0 that family 1 also measured (and agreed with) stays;
+    /// one family 0 measured alone goes; a weak pixel of family 1 the merge already
+    /// left empty stays empty.
+    #[test]
+    fn weak_pixels_stay_only_where_another_family_confirms_them() {
+        let mut depth = vec![750.0, 751.0, f32::NAN, 752.0];
+        let mut families = vec![3u8, 1, 0, 1];
+        remove_unconfirmed(&mut depth, &mut families, &[&[0, 1], &[2]]);
+        assert_eq!(families, [3, 0, 0, 1]);
+        assert!(depth[0] == 750.0 && depth[1].is_nan() && depth[2].is_nan() && depth[3] == 752.0);
     }
 }

@@ -550,6 +550,11 @@ impl Scanner {
             *e = decoder.extended();
         }
         let extended = &extended[..self.decoders.len().min(3)];
+        let mut weak: [&[u32]; 3] = [&[]; 3];
+        for (e, decoder) in weak.iter_mut().zip(&self.decoders) {
+            *e = decoder.weak();
+        }
+        merge::remove_unconfirmed(r.depth.pixels_mut(), &mut self.merged_families, &weak[..self.decoders.len().min(3)]);
         merge::resolve_disputes(&r.family_depth, r.depth.pixels_mut(), &mut self.merged_families, w, h, &mut self.rim);
         merge::remove_disputed_extensions(r.depth.pixels_mut(), &mut self.merged_families, extended, w, h, &mut self.rim);
         merge::remove_rim(r.depth.pixels_mut(), &mut self.merged_families, self.linear.pixels(), w, h, &mut self.rim);

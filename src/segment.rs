@@ -170,6 +170,30 @@ pub struct Edge {
     /// The identity given by the decoder: the pattern boundary index `j` (the boundary
     /// between stripes `j - 1` and `j`), or -1.
     pub id: i32,
+    /// What the alignment of the edge's own line made of it, taken or not.
+    pub tentative: Tentative,
+}
+
+/// The alignment's reading of one edge on its own line (see [`crate::align`]): the
+/// identity of the best labelling of the whole run, the runner-up's, and how far
+/// ahead the best is. The decoder takes the identity at once where the margins are
+/// wide enough; where they are not, the boundary's chain across lines may still
+/// decide it (see [`crate::decode`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Tentative {
+    /// The best identity, -1 for none (no label of the edge within the beam).
+    pub id: i32,
+    /// The second best identity, -1 for none.
+    pub alt: i32,
+    /// Bits of the best over the second best (infinite without one).
+    pub margin: f32,
+    /// Bits of the best over the edge's being spurious.
+    pub spurious_margin: f32,
+}
+
+impl Tentative {
+    /// No reading: the edge was not aligned.
+    pub const NONE: Tentative = Tentative { id: -1, alt: -1, margin: 0.0, spurious_margin: f32::NEG_INFINITY };
 }
 
 /// Which image axis the scan lines follow.
@@ -414,7 +438,7 @@ fn segment_line(input: &LineInput, line: usize, edges: &mut Vec<Edge>, sc: &mut 
             let (a, b, c) = (lin(p - 1), lin(p), lin(p + 1));
             let den = a - 2.0 * b + c;
             let offset = if den < 0.0 { (0.5 * (a - c) / den).clamp(-0.5, 0.5) } else { 0.0 };
-            edges.push(Edge { pos: p as f32 + offset, code: NO_CODE, mask: 0, run: run_id, id: -1 });
+            edges.push(Edge { pos: p as f32 + offset, code: NO_CODE, mask: 0, run: run_id, id: -1, tentative: Tentative::NONE });
         }
         s += 1;
     }
@@ -849,6 +873,7 @@ mod tests {
             mask: ANY_BOUNDARY,
             run: 0,
             id: -1,
+            tentative: Tentative::NONE,
         };
         Segmentation {
             axis: Some(ScanAxis::Rows),
