@@ -119,7 +119,6 @@ pub const SPURIOUS_MARGIN_BITS: f32 = 3.0;
 /// or 16 labels of an edge instead lost a point of coverage for the same time.
 pub const BEAM_BITS: f32 = ACCEPT_BITS + 2.0;
 
-use crate::num::max_f32;
 use crate::segment::Tentative;
 
 const NONE: f32 = f32::NEG_INFINITY;
@@ -722,15 +721,17 @@ fn land(slot: &mut Slot, s: f32, gap: f32, k: usize, pace: f32, (lo, hi): (f32, 
     // max then min, not clamp: a caller's period of 0 or less must not panic. As
     // comparisons, not `f32::max` and `f32::min` (which handle NaN with more
     // instructions, and in WebAssembly a call): the same values for any period that
-    // is a number, a NaN estimate giving `lo` as `f32::max` does.
-    let above = if next >= lo { next } else { lo };
-    slot.reach_pace = if above <= hi { above } else { hi };
+    // is a number, a NaN estimate giving `lo` as `f32::max` does. Strict, so that each
+    // is one `maxss` / `minss` natively (an equal value is the same number; only the
+    // sign of a zero bound, from a period of 0, could differ).
+    let above = if next > lo { next } else { lo };
+    slot.reach_pace = if above < hi { above } else { hi };
 }
 
 /// The larger of two scores. Scores are never NaN (no infinity but [`NONE`] is ever
-/// added to another), and for any other values this is [`max_f32`] (of equal values
+/// added to another), and for any other values this is [`crate::num::max_f32`] (of equal values
 /// `a`, the sign of a zero included); written as `b > a`, it is one `maxss` natively
-/// where [`max_f32`]'s NaN rule takes a compare and a blend.
+/// where `max_f32`'s NaN rule takes a compare and a blend.
 #[inline(always)]
 fn better(a: f32, b: f32) -> f32 {
     if b > a {
@@ -785,7 +786,8 @@ fn spacing_bits(gap: f32, k: usize, pace: f32) -> f32 {
         return 0.0;
     }
     let expected = k as f32 * pace;
-    let gap = max_f32(gap, 0.05);
+    // As one `maxss` (a NaN gap gives 0.05, as `max_f32` did).
+    let gap = if gap > 0.05 { gap } else { 0.05 };
     // ln(gap / expected) by the series of the area hyperbolic tangent: 2 (x + x³/3 +
     // x⁵/5) with x = (gap - expected) / (gap + expected), within 1 % of ln up to a ratio
     // of 3 (beyond, the cost is capped anyway); no library call in WebAssembly. The
