@@ -239,8 +239,6 @@ pub struct LineScratch {
     signal: [Vec<f32>; 3],
     level: [Vec<f32>; 3],
     flags: Vec<PixelFlags>,
-    /// The flags of each sample and its two neighbours, together.
-    near: Vec<PixelFlags>,
     strength: Vec<f32>,
 }
 
@@ -314,25 +312,37 @@ fn segment_line(input: &LineInput, line: usize, edges: &mut Vec<Edge>, sc: &mut 
         sc.level[ch].resize(len, 0.0);
     }
     sc.flags.resize(len, 0);
-    sc.near.resize(len, 0);
     sc.strength.resize(len, 0.0);
     let mut run_id = 0u32;
     edges.clear();
     // The line's samples, copied into contiguous scratch: a row is a slice of each
     // plane, a column every `w`-th sample.
-    let (first, stride) = match axis {
-        ScanAxis::Rows => (line * w, 1),
-        ScanAxis::Columns => (line, w),
-    };
-    let picks = (first..).step_by(stride).take(len);
-    for (f, i) in sc.flags.iter_mut().zip(picks.clone()) {
-        *f = flags[i];
-    }
-    for ch in 0..3 {
-        let log = &restored.log[ch];
-        for ((sig, lev), i) in sc.signal[ch].iter_mut().zip(sc.level[ch].iter_mut()).zip(picks.clone()) {
-            *sig = log[i];
-            *lev = linear[i][ch];
+    match axis {
+        ScanAxis::Rows => {
+            let span = line * w..line * w + len;
+            sc.flags.copy_from_slice(&flags[span.clone()]);
+            for ch in 0..3 {
+                sc.signal[ch].copy_from_slice(&restored.log[ch][span.clone()]);
+            }
+            let [l0, l1, l2] = &mut sc.level;
+            for (((a, b), c), p) in l0.iter_mut().zip(l1.iter_mut()).zip(l2.iter_mut()).zip(&linear[span]) {
+                (*a, *b, *c) = (p[0], p[1], p[2]);
+            }
+        }
+        ScanAxis::Columns => {
+            // `w` is at least 1: a column exists.
+            for (f, &v) in sc.flags.iter_mut().zip(flags[line..].iter().step_by(w)) {
+                *f = v;
+            }
+            for ch in 0..3 {
+                for (sig, &v) in sc.signal[ch].iter_mut().zip(restored.log[ch][line..].iter().step_by(w)) {
+                    *sig = v;
+                }
+            }
+            let [l0, l1, l2] = &mut sc.level;
+            for (((a, b), c), p) in l0.iter_mut().zip(l1.iter_mut()).zip(l2.iter_mut()).zip(linear[line..].iter().step_by(w)) {
+                (*a, *b, *c) = (p[0], p[1], p[2]);
+            }
         }
     }
     let ok = |f: PixelFlags| f & UNUSABLE == 0;
@@ -341,30 +351,35 @@ fn segment_line(input: &LineInput, line: usize, edges: &mut Vec<Edge>, sc: &mut 
     // noise); only where the three pixels are usable.
     // Each channel weighted by how far its brighter side is above the noise: a
     // channel near the floor on both sides (a black stripe's channel) has a log that
-    // is mostly noise. One pass per channel over the whole line, without branches.
-    sc.strength.iter_mut().for_each(|v| *v = 0.0);
-    if len >= 3 {
-        let inner = 1..len - 1;
-        for (o, (a, (b, c))) in sc.near[inner.clone()].iter_mut().zip(sc.flags.iter().zip(sc.flags[1..].iter().zip(&sc.flags[2..]))) {
-            *o = a | b | c;
-        }
-        for ch in 0..3 {
-            let dark_bit = 1 << (3 + ch);
-            let (sig, lev) = (&sc.signal[ch], &sc.level[ch]);
-            let before = sig.iter().zip(lev);
-            let after = sig[2..].iter().zip(&lev[2..]);
-            for ((out, &near), ((&s0, &l0), (&s2, &l2))) in sc.strength[inner.clone()].iter_mut().zip(&sc.near[inner.clone()]).zip(before.zip(after)) {
-                let m = max_f32(l0, l2);
-                let weight = m * m / (m * m + STRENGTH_NOISE_LEVEL * STRENGTH_NOISE_LEVEL);
-                let d = 0.5 * (s2 - s0);
-                *out += if near & dark_bit == 0 { weight * (d * d) } else { 0.0 };
-            }
-        }
-        // Only where the three pixels are usable.
-        for (out, &near) in sc.strength[inner.clone()].iter_mut().zip(&sc.near[inner]) {
-            if near & UNUSABLE != 0 {
-                *out = 0.0;
-            }
+    // is mostly noise. One pass over the line, the three channels added in order,
+    // over slices of the same length indexed alike and without branches, so that it
+    // vectorizes (natively and with simd128).
+    if len < 3 {
+        sc.strength.iter_mut().for_each(|v| *v = 0.0);
+    } else {
+        let inner = len - 2;
+        (sc.strength[0], sc.strength[len - 1]) = (0.0, 0.0);
+        let f = &sc.flags[..len];
+        let [s0, s1, s2] = &sc.signal;
+        let [l0, l1, l2] = &sc.level;
+        let (s0, s1, s2, l0, l1, l2) = (&s0[..len], &s1[..len], &s2[..len], &l0[..len], &l1[..len], &l2[..len]);
+        let out = &mut sc.strength[1..len - 1];
+        // One channel's share at `t` - 1 from the samples before (`t` - 2) and after
+        // (`t`), nothing where the channel is dark at one of the three pixels.
+        let share = |(s_before, s_after, l_before, l_after): (f32, f32, f32, f32), dark: bool| {
+            let m = max_f32(l_before, l_after);
+            let weight = m * m / (m * m + STRENGTH_NOISE_LEVEL * STRENGTH_NOISE_LEVEL);
+            let d = 0.5 * (s_after - s_before);
+            if dark { 0.0 } else { weight * (d * d) }
+        };
+        for i in 0..inner {
+            let near = f[i] | f[i + 1] | f[i + 2];
+            let mut v = 0.0;
+            v += share((s0[i], s0[i + 2], l0[i], l0[i + 2]), near & 1 << 3 != 0);
+            v += share((s1[i], s1[i + 2], l1[i], l1[i + 2]), near & 1 << 4 != 0);
+            v += share((s2[i], s2[i + 2], l2[i], l2[i + 2]), near & 1 << 5 != 0);
+            // Only where the three pixels are usable.
+            out[i] = if near & UNUSABLE != 0 { 0.0 } else { v };
         }
     }
     // Local maxima (strict on the right so plateaus give one edge), then
