@@ -494,18 +494,30 @@ fn plateau(sc: &LineScratch, a: f32, b: f32) -> Option<[Side; 3]> {
         (lo, (hi as usize).min(len - 1))
     };
     let flags = &sc.flags[lo..=hi];
-    if flags.iter().any(|&f| f & UNUSABLE != 0) {
+    let any = flags.iter().fold(0, |m, &f| m | f);
+    if any & UNUSABLE != 0 {
         return None;
     }
     let n = flags.len() as u32;
-    let any = flags.iter().fold(0, |m, &f| m | f);
+    // The six sums in one walk, each in the order `Iterator::sum` takes (from -0.0,
+    // which any first term replaces exactly).
+    let [s0, s1, s2] = &sc.signal;
+    let [l0, l1, l2] = &sc.level;
+    let (s0, s1, s2, l0, l1, l2) = (&s0[lo..=hi], &s1[lo..=hi], &s2[lo..=hi], &l0[lo..=hi], &l1[lo..=hi], &l2[lo..=hi]);
+    let mut sums = [-0.0f32; 6];
+    for k in 0..s0.len() {
+        sums[0] += s0[k];
+        sums[1] += s1[k];
+        sums[2] += s2[k];
+        sums[3] += l0[k];
+        sums[4] += l1[k];
+        sums[5] += l2[k];
+    }
     let mut sides = [Side::default(); 3];
     for (ch, side) in sides.iter_mut().enumerate() {
-        let log: f32 = sc.signal[ch][lo..=hi].iter().sum();
-        let level: f32 = sc.level[ch][lo..=hi].iter().sum();
         *side = Side {
-            log: log / n as f32,
-            level: level / n as f32,
+            log: sums[ch] / n as f32,
+            level: sums[3 + ch] / n as f32,
             n,
             clipped: any & (1 << ch) != 0,
             dark: any & (1 << (3 + ch)) != 0,
@@ -686,7 +698,8 @@ pub const LUMA_SHARE: f32 = 0.65;
 /// computed per boundary.
 #[derive(Clone, Debug)]
 pub struct LumaEncoder {
-    table: Vec<f32>,
+    /// Per step k, the level at its start and the difference to the next step's.
+    table: Box<[[f32; 2]; Self::STEPS]>,
 }
 
 impl LumaEncoder {
@@ -695,9 +708,12 @@ impl LumaEncoder {
     /// The encoder of a camera whose 8-bit level `x` has linear light `(x / 255)^gamma`.
     pub fn new(gamma: f32) -> Self {
         let exponent = 2.0 / gamma.max(0.1);
-        let table = (0..=Self::STEPS)
-            .map(|k| 255.0 * (k as f32 / Self::STEPS as f32).powf(exponent))
-            .collect();
+        let level = |k: usize| 255.0 * (k as f32 / Self::STEPS as f32).powf(exponent);
+        let mut table = Box::new([[0.0; 2]; Self::STEPS]);
+        for (k, t) in table.iter_mut().enumerate() {
+            let (a, b) = (level(k), level(k + 1));
+            *t = [a, b - a];
+        }
         LumaEncoder { table }
     }
 
@@ -708,7 +724,9 @@ impl LumaEncoder {
         // Through i32: a cheaper conversion than to usize, and x is at most STEPS.
         let k = (x as i32 as usize).min(Self::STEPS - 1);
         let t = x - k as f32;
-        self.table[k] + t * (self.table[k + 1] - self.table[k])
+        // The step's difference is the one this took between the two levels.
+        let [a, d] = self.table[k];
+        a + t * d
     }
 }
 
