@@ -239,6 +239,8 @@ pub struct LineScratch {
     signal: [Vec<f32>; 3],
     level: [Vec<f32>; 3],
     flags: Vec<PixelFlags>,
+    /// Each channel's share of the edge strength, dark or not (see `segment_line`).
+    share: [Vec<f32>; 3],
     strength: Vec<f32>,
 }
 
@@ -310,6 +312,7 @@ fn segment_line(input: &LineInput, line: usize, edges: &mut Vec<Edge>, sc: &mut 
     for ch in 0..3 {
         sc.signal[ch].resize(len, 0.0);
         sc.level[ch].resize(len, 0.0);
+        sc.share[ch].resize(len, 0.0);
     }
     sc.flags.resize(len, 0);
     sc.strength.resize(len, 0.0);
@@ -351,34 +354,36 @@ fn segment_line(input: &LineInput, line: usize, edges: &mut Vec<Edge>, sc: &mut 
     // noise); only where the three pixels are usable.
     // Each channel weighted by how far its brighter side is above the noise: a
     // channel near the floor on both sides (a black stripe's channel) has a log that
-    // is mostly noise. One pass over the line, the three channels added in order,
-    // over slices of the same length indexed alike and without branches, so that it
-    // vectorizes (natively and with simd128).
+    // is mostly noise. Each channel's share is computed everywhere first, in a pass
+    // without branches over slices of the same length, which vectorizes (natively and
+    // with simd128); then one pass adds the three shares in order where the channel
+    // is not dark, only where the three pixels are usable.
     if len < 3 {
         sc.strength.iter_mut().for_each(|v| *v = 0.0);
     } else {
         let inner = len - 2;
+        for ch in 0..3 {
+            let (sig, lev) = (&sc.signal[ch][..len], &sc.level[ch][..len]);
+            let (s0, s2, l0, l2) = (&sig[..inner], &sig[2..], &lev[..inner], &lev[2..]);
+            let share = &mut sc.share[ch][..inner];
+            for i in 0..inner {
+                let m = max_f32(l0[i], l2[i]);
+                let weight = m * m / (m * m + STRENGTH_NOISE_LEVEL * STRENGTH_NOISE_LEVEL);
+                let d = 0.5 * (s2[i] - s0[i]);
+                share[i] = weight * (d * d);
+            }
+        }
         (sc.strength[0], sc.strength[len - 1]) = (0.0, 0.0);
         let f = &sc.flags[..len];
-        let [s0, s1, s2] = &sc.signal;
-        let [l0, l1, l2] = &sc.level;
-        let (s0, s1, s2, l0, l1, l2) = (&s0[..len], &s1[..len], &s2[..len], &l0[..len], &l1[..len], &l2[..len]);
+        let [a, b, c] = &sc.share;
+        let (a, b, c) = (&a[..inner], &b[..inner], &c[..inner]);
         let out = &mut sc.strength[1..len - 1];
-        // One channel's share at `t` - 1 from the samples before (`t` - 2) and after
-        // (`t`), nothing where the channel is dark at one of the three pixels.
-        let share = |(s_before, s_after, l_before, l_after): (f32, f32, f32, f32), dark: bool| {
-            let m = max_f32(l_before, l_after);
-            let weight = m * m / (m * m + STRENGTH_NOISE_LEVEL * STRENGTH_NOISE_LEVEL);
-            let d = 0.5 * (s_after - s_before);
-            if dark { 0.0 } else { weight * (d * d) }
-        };
         for i in 0..inner {
             let near = f[i] | f[i + 1] | f[i + 2];
             let mut v = 0.0;
-            v += share((s0[i], s0[i + 2], l0[i], l0[i + 2]), near & 1 << 3 != 0);
-            v += share((s1[i], s1[i + 2], l1[i], l1[i + 2]), near & 1 << 4 != 0);
-            v += share((s2[i], s2[i + 2], l2[i], l2[i + 2]), near & 1 << 5 != 0);
-            // Only where the three pixels are usable.
+            v += if near & 1 << 3 != 0 { 0.0 } else { a[i] };
+            v += if near & 1 << 4 != 0 { 0.0 } else { b[i] };
+            v += if near & 1 << 5 != 0 { 0.0 } else { c[i] };
             out[i] = if near & UNUSABLE != 0 { 0.0 } else { v };
         }
     }
