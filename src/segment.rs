@@ -790,12 +790,21 @@ pub fn refine_with_luma(
     }
     let (_, len) = axis.lines(w, colour.len() / w);
     let half = 0.5 * period;
+    // The larger and the smaller of two positions as comparisons (`f32::max` and
+    // `f32::min` are calls in WebAssembly): the other where one is NaN, as those give;
+    // the sign of a zero, where they might differ, does not change a side.
+    let larger = |a: f32, b: f32| if a >= b || b.is_nan() { a } else { b };
+    let smaller = |a: f32, b: f32| if a <= b || b.is_nan() { a } else { b };
     for (line, edges) in seg.lines.iter_mut().enumerate() {
-        let at = |s: usize| colour[axis.index(line, s, w)];
+        let (origin, stride) = match axis {
+            ScanAxis::Rows => (line * w, 1),
+            ScanAxis::Columns => (line, w),
+        };
+        let at = |s: usize| colour[origin + s * stride];
         // The mean linear light of the pixels from `a` to `b` (positions), None where
         // there are none or one is clipped.
         let side = |a: f32, b: f32| -> Option<[f32; 3]> {
-            let (a, b) = (a.max(0.0).ceil(), b.min(len as f32 - 1.0).floor());
+            let (a, b) = (larger(a, 0.0).ceil(), smaller(b, len as f32 - 1.0).floor());
             if b < a {
                 return None;
             }
@@ -818,8 +827,8 @@ pub fn refine_with_luma(
         for i in 0..edges.len() {
             let p = edges[i].pos;
             let next = edges.get(i + 1).map_or(f32::INFINITY, |e| e.pos);
-            let before = side((prev + 1.2).max(p - half), p - 1.2);
-            let after = side(p + 1.2, (next - 1.2).min(p + half));
+            let before = side(larger(prev + 1.2, p - half), p - 1.2);
+            let after = side(p + 1.2, smaller(next - 1.2, p + half));
             let floor = prev_refined + 0.5;
             prev = p;
             prev_refined = p;
@@ -850,7 +859,8 @@ pub fn refine_with_luma(
             // The crossing of the target nearest the boundary, between pixel centres,
             // interpolated in how far across the edge each pixel is (the luma is not
             // straight in it).
-            let first = (p - 1.5).floor().max(0.0) as usize;
+            // (A negative or NaN position converts to 0.)
+            let first = (p - 1.5).floor() as usize;
             let last = ((p + 1.5).ceil() as usize).min(len - 1);
             let mut best: Option<f32> = None;
             let mut y0 = luma(at(first).map(f32::from));
