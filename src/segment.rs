@@ -380,10 +380,12 @@ fn segment_line(input: &LineInput, line: usize, edges: &mut Vec<Edge>, sc: &mut 
         let out = &mut sc.strength[1..len - 1];
         for i in 0..inner {
             let near = f[i] | f[i + 1] | f[i + 2];
+            // Loaded whatever the flags say, so that the selects need no branch.
+            let (a, b, c) = (a[i], b[i], c[i]);
             let mut v = 0.0;
-            v += if near & 1 << 3 != 0 { 0.0 } else { a[i] };
-            v += if near & 1 << 4 != 0 { 0.0 } else { b[i] };
-            v += if near & 1 << 5 != 0 { 0.0 } else { c[i] };
+            v += if near & 1 << 3 != 0 { 0.0 } else { a };
+            v += if near & 1 << 4 != 0 { 0.0 } else { b };
+            v += if near & 1 << 5 != 0 { 0.0 } else { c };
             out[i] = if near & UNUSABLE != 0 { 0.0 } else { v };
         }
     }
@@ -394,6 +396,16 @@ fn segment_line(input: &LineInput, line: usize, edges: &mut Vec<Edge>, sc: &mut 
     let shoulder_test = period >= SHOULDER_MIN_PERIOD;
     let mut s = 1;
     while s + 1 < len {
+        // Usable samples too weak for an edge, passed in a tight loop (most are).
+        {
+            let (strength, fl) = (&sc.strength[..len], &sc.flags[..len]);
+            while s + 1 < len && ok(fl[s]) && !(strength[s] >= MIN_EDGE_STRENGTH) {
+                s += 1;
+            }
+            if s + 1 >= len {
+                break;
+            }
+        }
         if !ok(sc.flags[s]) {
             run_id += 1;
             // Skip the unusable stretch.
