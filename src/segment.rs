@@ -543,9 +543,10 @@ fn plateau(sc: &LineScratch, a: f32, b: f32) -> Option<[Side; 3]> {
     Some(sides)
 }
 
-/// The noise (standard deviation) of a side's mean log signal.
-fn log_noise(side: &Side) -> f32 {
-    NOISE_LINEAR / (max_f32(side.level, DARK_LEVEL) * (side.n as f32).sqrt())
+/// The noise (standard deviation) of a side's mean log signal, `root` the square root
+/// of its pixel count (the same in every channel, so taken once per side).
+fn log_noise(side: &Side, root: f32) -> f32 {
+    NOISE_LINEAR / (max_f32(side.level, DARK_LEVEL) * root)
 }
 
 /// Which of down (bit 0), unchanged (bit 1) and up (bit 2) a channel allows.
@@ -597,6 +598,11 @@ fn classify(edges: &mut [Edge], sc: &LineScratch, period: f32) {
             continue;
         };
         let sides: [(Side, Side); 3] = std::array::from_fn(|ch| (left[ch], right[ch]));
+        // Each side's pixel count is the same in every channel: what depends on it
+        // alone is computed once.
+        let (nl, nr) = (left[0].n, right[0].n);
+        let (root_l, root_r) = ((nl as f32).sqrt(), (nr as f32).sqrt());
+        let level_noise = NOISE_LINEAR * (1.0 / nl.max(1) as f32 + 1.0 / nr.max(1) as f32).sqrt();
         // Per channel: the step, its noise, and whether it can be read at all.
         let mut delta = [0f32; 3];
         let mut sigma = [0f32; 3];
@@ -610,7 +616,7 @@ fn classify(edges: &mut [Edge], sc: &LineScratch, period: f32) {
             let (l, r) = sides[ch];
             delta[ch] = r.log - l.log;
             // Neither is near overflow: the plain root, not `hypot`'s careful one.
-            let (nl, nr) = (log_noise(&l), log_noise(&r));
+            let (nl, nr) = (log_noise(&l, root_l), log_noise(&r, root_r));
             sigma[ch] = (nl * nl + nr * nr).sqrt();
             let lit = |s: &Side| !s.dark && s.level >= LIT_BESIDE_DARK * DARK_LEVEL;
             if has_prev && l.dark && lit(&r) {
@@ -635,8 +641,7 @@ fn classify(edges: &mut [Edge], sc: &LineScratch, period: f32) {
         // Compared as a ratio (at least 1), which needs no logarithm.
         let seen_ratio = (0..3).fold(1f32, |m, ch| {
             let (l, r) = sides[ch];
-            let noise = NOISE_LINEAR * (1.0 / l.n.max(1) as f32 + 1.0 / r.n.max(1) as f32).sqrt();
-            if (r.level - l.level).abs() <= NOISE_SIGMAS * noise {
+            if (r.level - l.level).abs() <= NOISE_SIGMAS * level_noise {
                 return m;
             }
             let (a, b) = (max_f32(r.level, DARK_LEVEL), max_f32(l.level, DARK_LEVEL));
