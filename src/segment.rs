@@ -355,9 +355,9 @@ fn segment_line(input: &LineInput, line: usize, edges: &mut Vec<Edge>, sc: &mut 
     // Each channel weighted by how far its brighter side is above the noise: a
     // channel near the floor on both sides (a black stripe's channel) has a log that
     // is mostly noise. Each channel's share is computed everywhere first, in a pass
-    // without branches over slices of the same length, which vectorizes (natively and
-    // with simd128); then one pass adds the three shares in order where the channel
-    // is not dark, only where the three pixels are usable.
+    // without branches over slices of the same length; then one pass adds the three
+    // shares in order where the channel is not dark, only where the three pixels are
+    // usable. Both vectorize (natively and with simd128).
     if len < 3 {
         sc.strength.iter_mut().for_each(|v| *v = 0.0);
     } else {
@@ -380,7 +380,8 @@ fn segment_line(input: &LineInput, line: usize, edges: &mut Vec<Edge>, sc: &mut 
         let out = &mut sc.strength[1..len - 1];
         for i in 0..inner {
             let near = f[i] | f[i + 1] | f[i + 2];
-            // Loaded whatever the flags say, so that the selects need no branch.
+            // Loaded whatever the flags say: a load under a condition kept this pass
+            // from vectorizing.
             let (a, b, c) = (a[i], b[i], c[i]);
             let mut v = 0.0;
             v += if near & 1 << 3 != 0 { 0.0 } else { a };
