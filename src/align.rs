@@ -729,9 +729,9 @@ fn land(slot: &mut Slot, s: f32, gap: f32, k: usize, pace: f32, (lo, hi): (f32, 
 }
 
 /// The larger of two scores. Scores are never NaN (no infinity but [`NONE`] is ever
-/// added to another), and for any other values this is [`crate::num::max_f32`] (of equal values
-/// `a`, the sign of a zero included); written as `b > a`, it is one `maxss` natively
-/// where `max_f32`'s NaN rule takes a compare and a blend.
+/// added to another), and for any other values this is [`crate::num::max_f32`] (of
+/// equal values `a`, the sign of a zero included); written as `b > a`, it is one
+/// `maxss` natively where `max_f32`'s NaN rule takes a compare and a blend.
 #[inline(always)]
 fn better(a: f32, b: f32) -> f32 {
     if b > a {
