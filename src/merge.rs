@@ -382,18 +382,25 @@ pub fn remove_isolated(depth: &mut [f32], width: usize, height: usize, scratch: 
                 border(0, row);
                 border(width - 1, row);
                 // The interior without branches (it vectorizes): a NaN depth has no
-                // support and is kept as it is.
-                let mut gone = 0;
-                for (x, out) in row.iter_mut().enumerate().take(width - 1).skip(1) {
-                    let z = mid[x];
+                // support and is kept as it is. Every neighbour comes from a slice of
+                // the interior's length, so there are no bounds checks, and the counts
+                // are u32 (four to a 128-bit vector, not two).
+                let n = width - 2;
+                let (ul, uc, ur) = (&up[..n], &up[1..n + 1], &up[2..n + 2]);
+                let (ml, mc, mr) = (&mid[..n], &mid[1..n + 1], &mid[2..n + 2]);
+                let (dl, dc, dr) = (&down[..n], &down[1..n + 1], &down[2..n + 2]);
+                let out = &mut row[1..n + 1];
+                let mut gone = 0u32;
+                for i in 0..n {
+                    let z = mc[i];
                     let tol = neighbour_tolerance(z);
-                    let near = |v: f32| ((v - z).abs() <= tol) as usize;
-                    let support = near(up[x - 1]) + near(up[x]) + near(up[x + 1]) + near(mid[x - 1]) + near(mid[x + 1]) + near(down[x - 1]) + near(down[x]) + near(down[x + 1]);
-                    let drop = !z.is_nan() && support < MIN_SUPPORT;
-                    *out = if drop { f32::NAN } else { z };
-                    gone += drop as usize;
+                    let near = |v: f32| ((v - z).abs() <= tol) as u32;
+                    let support = near(ul[i]) + near(uc[i]) + near(ur[i]) + near(ml[i]) + near(mr[i]) + near(dl[i]) + near(dc[i]) + near(dr[i]);
+                    let drop = !z.is_nan() && support < MIN_SUPPORT as u32;
+                    out[i] = if drop { f32::NAN } else { z };
+                    gone += drop as u32;
                 }
-                removed += gone;
+                removed += gone as usize;
             }
             _ => (0..width).for_each(|x| border(x, row)),
         }
