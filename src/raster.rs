@@ -5,6 +5,7 @@
 //! 0..=1 per channel unless a function says otherwise.
 
 use crate::error::{Error, Result};
+use wide::f32x4;
 
 /// A `width` x `height` image of `T`, stored row by row.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -356,20 +357,30 @@ pub fn interpolate_chroma_into(
     let (sx, sy) = (1 + pairs.horizontal as usize, 1 + pairs.vertical as usize);
     let (bw, bh) = (w.div_ceil(sx), h.div_ceil(sy));
     blocks.clear();
-    // The blocks, then one row of them mixed down the columns.
-    blocks.resize(bw * bh + bw, [0.0; 2]);
-    for by in 0..bh {
-        for bx in 0..bw {
-            let (mut sum, mut n) = ([0f32; 2], 0f32);
-            for v in by * sy..((by + 1) * sy).min(h) {
-                for u in bx * sx..((bx + 1) * sx).min(w) {
-                    let c = to_ycbcr(frame.get(u, v));
+    // The blocks, then one row of them mixed down the columns, then one row of pixels'
+    // chroma mixed across too.
+    blocks.resize(bw * bh + bw + w, [0.0; 2]);
+    let (blocks, rest) = blocks.split_at_mut(bw * bh);
+    let (column_mix, mixed) = rest.split_at_mut(bw);
+    // Each block's sum, a row of pixels at a time into the row of blocks (a block adds
+    // its pixels in the same order as one by one: down its rows, along each row), then
+    // its mean.
+    let pixels = frame.pixels();
+    for (by, block_row) in blocks.chunks_exact_mut(bw).enumerate() {
+        let rows = by * sy..((by + 1) * sy).min(h);
+        let n_rows = rows.len();
+        for v in rows {
+            for (sum, run) in block_row.iter_mut().zip(pixels[v * w..][..w].chunks(sx)) {
+                for &p in run {
+                    let c = to_ycbcr(p);
                     sum[0] += c[1];
                     sum[1] += c[2];
-                    n += 1.0;
                 }
             }
-            blocks[by * bw + bx] = [sum[0] / n, sum[1] / n];
+        }
+        for (bx, sum) in block_row.iter_mut().enumerate() {
+            let n = (n_rows * (((bx + 1) * sx).min(w) - bx * sx)) as f32;
+            *sum = [sum[0] / n, sum[1] / n];
         }
     }
     // The neighbouring block along an axis of block size `s`, for a pixel at `p` in
@@ -387,16 +398,51 @@ pub fn interpolate_chroma_into(
     let weights = |s: usize| if s == 1 { (1.0, 0.0) } else { (0.75f32, 0.25f32) };
     let ((ox, nx), (oy, ny)) = (weights(sx), weights(sy));
     // Each row: the blocks' chroma mixed down the columns once (after the blocks, in
-    // the same scratch), then across for each pixel.
-    let (blocks, column_mix) = blocks.split_at_mut(bw * bh);
-    for ((v, row), out_row) in frame.pixels().chunks_exact(w).enumerate().zip(out.pixels_mut().chunks_exact_mut(w)) {
+    // the same scratch), then across for each pixel (after that): with pairs across, a
+    // pair's left pixel takes the block on its left and its right pixel the block on
+    // its right.
+    for ((v, row), out_row) in pixels.chunks_exact(w).enumerate().zip(out.pixels_mut().chunks_exact_mut(w)) {
         let (own, next) = (&blocks[v / sy * bw..][..bw], &blocks[neighbour(v, v / sy, sy, bh) * bw..][..bw]);
         for ((m, a), c) in column_mix.iter_mut().zip(own).zip(next) {
             *m = [oy * a[0] + ny * c[0], oy * a[1] + ny * c[1]];
         }
-        for (u, (&p, o)) in row.iter().zip(out_row.iter_mut()).enumerate() {
-            let (a, b) = (column_mix[u / sx], column_mix[neighbour(u, u / sx, sx, bw)]);
-            *o = from_ycbcr(luma(p.map(f32::from)), ox * a[0] + nx * b[0], ox * a[1] + nx * b[1]);
+        let across = |a: [f32; 2], b: [f32; 2]| [ox * a[0] + nx * b[0], ox * a[1] + nx * b[1]];
+        if sx == 1 {
+            for (m, &a) in mixed.iter_mut().zip(column_mix.iter()) {
+                *m = across(a, a);
+            }
+        } else {
+            for (bx, pair) in mixed.chunks_mut(2).enumerate() {
+                let a = column_mix[bx];
+                let sides = [column_mix[bx.saturating_sub(1)], column_mix[(bx + 1).min(bw - 1)]];
+                for (m, b) in pair.iter_mut().zip(sides) {
+                    *m = across(a, b);
+                }
+            }
+        }
+        // Four pixels at a time: the arithmetic of `luma` and `from_ycbcr`, operation
+        // for operation (the same results), with the clamped values converted by
+        // truncation (in 0.5..=255.5, as `as u8` does).
+        let quads = row.chunks_exact(4).zip(out_row.chunks_exact_mut(4)).zip(mixed.chunks_exact(4));
+        for ((p, o), m) in quads {
+            let channel = |k: usize| f32x4::new([p[0][k], p[1][k], p[2][k], p[3][k]].map(f32::from));
+            let (r, g, b) = (channel(0), channel(1), channel(2));
+            let y = f32x4::splat(0.299) * r + f32x4::splat(0.587) * g + f32x4::splat(0.114) * b;
+            let cb = f32x4::new([m[0][0], m[1][0], m[2][0], m[3][0]]) - f32x4::splat(128.0);
+            let cr = f32x4::new([m[0][1], m[1][1], m[2][1], m[3][1]]) - f32x4::splat(128.0);
+            let rgb = [
+                y + f32x4::splat(1.402) * cr,
+                y - f32x4::splat(0.344_136) * cb - f32x4::splat(0.714_136) * cr,
+                y + f32x4::splat(1.772) * cb,
+            ]
+            .map(|x| (x.fast_max(f32x4::splat(0.0)).fast_min(f32x4::splat(255.0)) + f32x4::splat(0.5)).fast_trunc_int().to_array());
+            for (j, o) in o.iter_mut().enumerate() {
+                *o = [rgb[0][j] as u8, rgb[1][j] as u8, rgb[2][j] as u8];
+            }
+        }
+        let done = w / 4 * 4;
+        for ((&p, o), m) in row[done..].iter().zip(out_row[done..].iter_mut()).zip(&mixed[done..]) {
+            *o = from_ycbcr(luma(p.map(f32::from)), m[0], m[1]);
         }
     }
 }
