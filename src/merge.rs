@@ -383,8 +383,9 @@ pub fn remove_isolated(depth: &mut [f32], width: usize, height: usize, scratch: 
                 border(width - 1, row);
                 // The interior without branches (it vectorizes): a NaN depth has no
                 // support and is kept as it is. Every neighbour comes from a slice of
-                // the interior's length, so there are no bounds checks, and the counts
-                // are u32 (four to a 128-bit vector, not two).
+                // the interior's length, so there are no bounds checks, the counts are
+                // u32 (four to a 128-bit vector, not two), and `&` (not `&&`) keeps the
+                // NaN test from becoming a branch.
                 let n = width - 2;
                 let (ul, uc, ur) = (&up[..n], &up[1..n + 1], &up[2..n + 2]);
                 let (ml, mc, mr) = (&mid[..n], &mid[1..n + 1], &mid[2..n + 2]);
@@ -396,7 +397,7 @@ pub fn remove_isolated(depth: &mut [f32], width: usize, height: usize, scratch: 
                     let tol = neighbour_tolerance(z);
                     let near = |v: f32| ((v - z).abs() <= tol) as u32;
                     let support = near(ul[i]) + near(uc[i]) + near(ur[i]) + near(ml[i]) + near(mr[i]) + near(dl[i]) + near(dc[i]) + near(dr[i]);
-                    let drop = !z.is_nan() && support < MIN_SUPPORT as u32;
+                    let drop = !z.is_nan() & (support < MIN_SUPPORT as u32);
                     out[i] = if drop { f32::NAN } else { z };
                     gone += drop as u32;
                 }
