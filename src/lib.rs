@@ -15,7 +15,7 @@
 //! | coded stripe patterns and their spec files | [`pattern`] | error, raster |
 //! | log-gradient illumination restoration (eq. 5-8) | [`filter`] | error, num, raster |
 //! | stripe boundaries and their colour transitions | [`segment`] | filter, num, raster |
-//! | order-preserving alignment of a line's boundaries to the pattern | [`align`] | num, segment |
+//! | order-preserving alignment of a line's boundaries to the pattern | [`align`] | segment |
 //! | stripe identification from neighbour sequences | [`decode`] | align, num, pattern, segment |
 //! | depth from a calibrated projector-camera pair | [`triangulate`] | calib, num, pattern |
 //! | merging the range images of the families | [`merge`] | num |
