@@ -99,6 +99,20 @@ pub const JUMP_BITS: f32 = 12.0;
 /// predecessor's labels).
 pub const JUMP_MAX_CODES: u32 = 2;
 
+/// How many edges after a jump's edge may show the next boundary: a jump lands only on
+/// the ranks from which one of them can be reached in a step. Why: texture edges with a
+/// specific code that the best labelling cannot take are common (a fifth of the edges
+/// of the end-to-end test's textured frame), and each seeded a label at every rank of
+/// its code (about 37), nearly all of which stayed in the beam, all scoring the same.
+/// Two edges ahead took the alignment of that frame (`examples/bench_frame`, textured,
+/// 4:2:0) from 343 M to 285 M instructions. 77 VGA rows of the hard evaluation (11
+/// scenes under every condition but `8mp`) stayed within 0.01 points of coverage and
+/// outliers but one: bag under `world` gained one wrong patch of 160 pixels (0.33 %
+/// to 0.52 % outliers). Tried on 2026-12-03, when 3-pixel stripes still decoded with
+/// 2-3 % outliers, it raised those by half, and was taken out; they decode with 0.1 %
+/// now, and the lookahead changes them by under 0.01 points.
+pub const JUMP_LOOKAHEAD: usize = 2;
+
 /// Margin of an edge's best rank over every other rank for it to be taken, bits.
 /// Measured on the simulated scenes (`eval --scenes sphere,colorchecker,sphere-dye,
 /// paper-dye,bag,occluders,wood,skin --directions 1,2 --filters loggrad`, mean of the
@@ -222,6 +236,9 @@ pub struct Aligner {
     /// edge's labels for the step to the edge before (`back`'s halves, in turn).
     slots: Vec<Slot>,
     cand: Vec<u64>,
+    /// The ranks a jump may land on ([`JUMP_LOOKAHEAD`]), and scratch: two bit sets of
+    /// `words` words.
+    landing: Vec<u64>,
     back: Vec<BackSlot>,
 }
 
@@ -387,6 +404,7 @@ impl Aligner {
             step_cost,
             slots,
             cand: vec![0; words + 1],
+            landing: vec![0; 2 * words],
             back: vec![BackSlot::default(); 2 * spare],
             ..Default::default()
         }
@@ -425,7 +443,7 @@ impl Aligner {
         let pace_range = (PACE_RANGE.0 * period, PACE_RANGE.1 * period);
         // The fields apart, and the tables as slices, so that the loops keep them in
         // registers and the compiler sees their lengths.
-        let Aligner { rank_bit, lit, missed, step_cost, words, code_ranks, used, gain, blind, jumps, start, labels, none, slots, cand, .. } =
+        let Aligner { rank_bit, lit, missed, step_cost, words, code_ranks, used, gain, blind, jumps, start, labels, none, slots, cand, landing, .. } =
             self;
         let (rank_bit, lit, missed, step_cost, code_ranks, gain, blind) = (&rank_bit[..nr], &lit[..spare], &missed[..], &step_cost[..nr], &code_ranks[..], &gain[..n], &blind[..n]);
         let words = *words;
@@ -512,12 +530,22 @@ impl Aligner {
             let restart = if jump { better(prev_none, prev_max - JUMP_BITS) } else { prev_none };
             let fresh = i == 0 || restart >= prev_max - BEAM_BITS;
             if fresh {
+                // Where only the jump makes the edge fresh, it lands only on the ranks
+                // the next edges can follow ([`JUMP_LOOKAHEAD`]; none on a run's last
+                // edge).
+                let only_jump = i > 0 && prev_none < prev_max - BEAM_BITS;
+                if only_jump {
+                    let ahead = i + 1..(i + 1 + JUMP_LOOKAHEAD).min(n);
+                    let codes = masks[ahead.clone()].iter().fold(0, |m, &x| m | x) & *used;
+                    let hidden = blind[ahead].iter().fold(0, |h, &b| h | (b & blind[i]));
+                    followed_by(code_ranks, words, codes, if hidden == 0 { MAX_MISSED + 1 } else { MAX_STEP }, landing);
+                }
                 let mut m = mask & ((1 << 27) - 1);
                 while m != 0 {
                     let c = m.trailing_zeros() as usize;
                     m &= m - 1;
-                    for (w, bits) in cand.iter_mut().zip(&code_ranks[c * words..(c + 1) * words]) {
-                        *w |= bits;
+                    for ((w, bits), &land) in cand.iter_mut().zip(&code_ranks[c * words..(c + 1) * words]).zip(&landing[..words]) {
+                        *w |= if only_jump { bits & land } else { *bits };
                     }
                 }
             }
@@ -755,6 +783,31 @@ fn emit(rank_bit: &[u8], (mask, gain): (u64, f32), r: usize) -> f32 {
     }
 }
 
+/// Into `out[..words]`, the ranks from which a step of 1 to `reach` ranks lands on a
+/// rank whose code is in `codes` (`code_ranks` and `words` as in [`Aligner`]; `out` has
+/// `2 * words` words, the second half scratch).
+fn followed_by(code_ranks: &[u64], words: usize, codes: u32, reach: usize, out: &mut [u64]) {
+    let (out, target) = out[..2 * words].split_at_mut(words);
+    out.fill(0);
+    target.fill(0);
+    let mut m = codes;
+    while m != 0 {
+        let c = m.trailing_zeros() as usize;
+        m &= m - 1;
+        for (t, bits) in target.iter_mut().zip(&code_ranks[c * words..(c + 1) * words]) {
+            *t |= bits;
+        }
+    }
+    // Bit r of `out` for bit r + k of `target`: the set shifted down k bits across its
+    // words (k < 64).
+    for k in 1..=reach {
+        for w in 0..words {
+            let above = if w + 1 < words { target[w + 1] << (64 - k) } else { 0 };
+            out[w] |= target[w] >> k | above;
+        }
+    }
+}
+
 /// Whether a labelling may jump to an edge with the compatible codes `mask` (of the
 /// pattern's `used` codes): its evidence must name at most [`JUMP_MAX_CODES`] of them.
 #[inline]
@@ -911,6 +964,23 @@ mod tests {
     /// an aligner for them, and the run's true ranks, masks and positions. The far
     /// surface's stripes are narrower (it is further away) and start right after the
     /// near one's.
+    /// The ranks a jump may land on: those from which a step of 1 to `reach` ranks
+    /// reaches one of the codes, across the 64-bit words of a 150-rank pattern.
+    #[test]
+    fn landing_ranks_are_those_a_short_step_follows() {
+        let codes = random_codes(0x1a2d_1e55, 150);
+        let al = Aligner::new(codes.iter().map(|&c| (c, 7)));
+        let wanted = (1 << codes[10]) | (1 << codes[64]) | (1 << codes[129]);
+        for reach in [MAX_MISSED + 1, MAX_STEP] {
+            let mut out = vec![0u64; 2 * al.words];
+            followed_by(&al.code_ranks, al.words, wanted, reach, &mut out);
+            for r in 0..codes.len() {
+                let follows = (1..=reach).any(|k| codes.get(r + k).is_some_and(|&c| wanted >> c & 1 != 0));
+                assert_eq!(out[r / 64] >> (r % 64) & 1 != 0, follows, "rank {r}, reach {reach}");
+            }
+        }
+    }
+
     fn jump_run() -> (Vec<u8>, Aligner, Vec<i32>, Vec<u32>, Vec<f32>) {
         let codes = random_codes(0x0bad_5eed, 100);
         let al = Aligner::new(codes.iter().map(|&c| (c, 7)));
