@@ -960,10 +960,6 @@ mod tests {
         assert!(named * 2 >= masks.len(), "only {named} of {} edges identified: {out:?}", masks.len());
     }
 
-    /// One run with a depth discontinuity between ranks 29 and 60: the pattern's codes,
-    /// an aligner for them, and the run's true ranks, masks and positions. The far
-    /// surface's stripes are narrower (it is further away) and start right after the
-    /// near one's.
     /// The ranks a jump may land on: those from which a step of 1 to `reach` ranks
     /// reaches one of the codes, across the 64-bit words of a 150-rank pattern.
     #[test]
@@ -981,6 +977,10 @@ mod tests {
         }
     }
 
+    /// One run with a depth discontinuity between ranks 29 and 60: the pattern's codes,
+    /// an aligner for them, and the run's true ranks, masks and positions. The far
+    /// surface's stripes are narrower (it is further away) and start right after the
+    /// near one's.
     fn jump_run() -> (Vec<u8>, Aligner, Vec<i32>, Vec<u32>, Vec<f32>) {
         let codes = random_codes(0x0bad_5eed, 100);
         let al = Aligner::new(codes.iter().map(|&c| (c, 7)));
