@@ -706,14 +706,14 @@ impl Decoder {
             let before = i.checked_sub(1).map(|k| edges[k]);
             let after = edges.get(i + 1).copied();
             let from = self.extended.len();
-            if let Some(p) = before.filter(|p| p.id >= 0 && (a.id - p.id) * step == 1 && p.run == a.run && a.pos > p.pos) {
+            if let Some(w) = before.and_then(|p| stripe_width(&p, a, step)) {
                 if weak.is_none() || is_weak(i) || is_weak(i - 1) {
-                    extend_stripe(&light_line, a, a.pos - p.pos, 1, after.map(|e| e.pos), step, out, &mut self.extended);
+                    extend_stripe(&light_line, a, w, 1, after.map(|e| e.pos), step, out, &mut self.extended);
                 }
             }
-            if let Some(n) = after.filter(|n| n.id >= 0 && (n.id - a.id) * step == 1 && n.run == a.run && n.pos > a.pos) {
+            if let Some(w) = after.and_then(|n| stripe_width(a, &n, step)) {
                 if weak.is_none() || is_weak(i) || is_weak(i + 1) {
-                    extend_stripe(&light_line, a, n.pos - a.pos, -1, before.map(|e| e.pos), step, out, &mut self.extended);
+                    extend_stripe(&light_line, a, w, -1, before.map(|e| e.pos), step, out, &mut self.extended);
                 }
             }
             if weak.is_some() {
@@ -941,14 +941,19 @@ pub const STRIPE_WIDTH_JUMP: f32 = 1.35;
 /// keep.
 pub const LONE_STRIPE_SHARE: f32 = 2.0 / 3.0;
 
+/// The width of the stripe from `p` to `q` where they are consecutive identified
+/// boundaries (`step` apart) of one run, in order along the line; None elsewhere.
+fn stripe_width(p: &Edge, q: &Edge, step: i32) -> Option<f32> {
+    (p.id >= 0 && q.id >= 0 && (q.id - p.id) * step == 1 && p.run == q.run && q.pos > p.pos).then(|| q.pos - p.pos)
+}
+
 /// Whether the stripe between `edges[k]` and `edges[k + 1]` (consecutive identities
 /// `step` apart) is wider than [`STRIPE_WIDTH_JUMP`] times the identified stripe beside
 /// it on either side, or with none, than [`LONE_STRIPE_SHARE`] of `max_width`.
 fn wider_than_beside(edges: &[Edge], k: usize, step: i32, max_width: f32) -> bool {
     let (a, b) = (edges[k], edges[k + 1]);
-    let stripe = |p: &Edge, q: &Edge| (p.id >= 0 && q.id >= 0 && (q.id - p.id) * step == 1 && p.run == q.run && q.pos > p.pos).then(|| q.pos - p.pos);
-    let before = k.checked_sub(1).and_then(|j| stripe(&edges[j], &a));
-    let after = edges.get(k + 2).and_then(|n| stripe(&b, n));
+    let before = k.checked_sub(1).and_then(|j| stripe_width(&edges[j], &a, step));
+    let after = edges.get(k + 2).and_then(|n| stripe_width(&b, n, step));
     let width = b.pos - a.pos;
     match (before, after) {
         (None, None) => width > LONE_STRIPE_SHARE * max_width,
