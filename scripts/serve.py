@@ -1,8 +1,8 @@
 """Serves the web demo on 127.0.0.1 and prints its URL.
 
 Only the folders the page needs are served: www/ (the page, its scripts, the worker and
-the projector page) and pkg/ (the wasm package the worker imports as ../pkg/), plus the
-stored frame the end-to-end test fetches from the page. Everything else in the
+the projector page), pkg/ and pkg-threads/ (the wasm packages the worker imports as
+../pkg/ and, with WebAssembly threads, ../pkg-threads/), plus the stored frame the end-to-end test fetches from the page. Everything else in the
 repository (.git/, target/, sources, scripts) answers 404, and so does any path with a
 `.` or `..` segment, encoded or not. No directory is listed.
 
@@ -20,15 +20,16 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
 # Repository folders served under the same URL path. tests/e2e/fixtures/ is not used by
 # the page; the end-to-end test (tests/e2e/run.mjs) fetches its stored frame from it.
-SERVED = ("www", "pkg", "tests/e2e/fixtures")
+SERVED = ("www", "pkg", "pkg-threads", "tests/e2e/fixtures")
 
 CONTENT_SECURITY_POLICY = "; ".join([
     "default-src 'none'",
     # Module scripts from this origin; WebAssembly compilation (no JS eval).
     "script-src 'self' 'wasm-unsafe-eval'",
-    # The decoder workers (module workers from this origin).
-    "worker-src 'self'",
-    # The worker fetches pkg/stripelight_bg.wasm.
+    # The decoder workers (module workers from this origin), and the thread pool's
+    # workers, which wasm-bindgen-rayon starts from a blob: copy of its own script.
+    "worker-src 'self' blob:",
+    # The worker fetches pkg/stripelight_bg.wasm (or pkg-threads/'s).
     "connect-src 'self'",
     # The favicon is `data:,`. (The camera reaches its <video> as a MediaStream object,
     # which media-src does not govern; downloads are blob: navigations, not loads.)

@@ -13,6 +13,15 @@ if ! rustup target list --installed | grep -qx wasm32-unknown-unknown; then
   rustup target add wasm32-unknown-unknown
 fi
 
+# The nightly toolchain of the WebAssembly threads build, with the standard library's
+# sources (it is rebuilt with atomics).
+. scripts/wasm-threads.env
+if ! rustup run "$THREADS_TOOLCHAIN" rustc --version >/dev/null 2>&1 ||
+   ! rustup component list --toolchain "$THREADS_TOOLCHAIN" --installed | grep -q '^rust-src'; then
+  say "installing the $THREADS_TOOLCHAIN toolchain with rust-src (for pkg-threads/)"
+  rustup toolchain install "$THREADS_TOOLCHAIN" --profile minimal --component rust-src
+fi
+
 # wasm-bindgen-cli at exactly the version Cargo.lock pins for the wasm-bindgen crate
 # (the generated JS glue and the runtime crate must match).
 want=$(awk '$0 == "name = \"wasm-bindgen\"" { getline; gsub(/"/, "", $3); print $3; exit }' Cargo.lock)

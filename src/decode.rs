@@ -122,7 +122,7 @@ pub struct Decoder {
     smoothed: Vec<f32>,
     /// Where each line's edges start in the flat order, and one past the last line.
     line_start: Vec<usize>,
-    /// Per chunk of lines ([`LINE_CHUNKS`], aligned at once natively): the alignment
+    /// Per chunk of lines ([`LINE_CHUNKS`], aligned at once with threads): the alignment
     /// of a run to the pattern, its masks and its ranks.
     aligners: Vec<RunAligner>,
     /// Per edge (flat order), its boundary's continuation on the previous and on the
@@ -292,7 +292,7 @@ impl Decoder {
     /// Identify the boundaries of every line of `seg` (sets `Edge::id`); `period` is the
     /// expected stripe period along the lines, pixels.
     pub fn run(&mut self, seg: &mut Segmentation, period: f32) {
-        // Every other line is aligned on its own (natively, chunks of lines at once);
+        // Every other line is aligned on its own (with threads, chunks of lines at once);
         // the lines between take what the lines either side agree on.
         let (n_ranks, increasing) = (self.codes.len() as i32, self.increasing);
         for_line_chunks(&mut seg.lines, &mut self.aligners, |start, lines, a| {

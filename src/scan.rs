@@ -303,7 +303,7 @@ pub fn predict_families(spec: &PatternSpec, calib: &Calibration) -> Result<Vec<F
 /// depth edges, where the box reaches across the occlusion (occluders 94.5 -> 92.5 %).
 pub const SMOOTH_MIN_FAMILIES: usize = 3;
 
-/// How many chunks of the frame linearization splits it into (natively they run at
+/// How many chunks of the frame linearization splits it into (with threads they run at
 /// once).
 const LINEARIZE_CHUNKS: usize = 8;
 
@@ -449,7 +449,7 @@ impl Scanner {
             &self.interpolated
         };
         // Gamma and the colour mixing undone, and the pixel flags, in chunks of the
-        // frame that natively run at once.
+        // frame that run at once with threads.
         let (lut, unmix) = (&self.lut, self.unmix);
         let chunk = (w * h).div_ceil(LINEARIZE_CHUNKS).max(1);
         let linearize = |((colour, frame), (linear, flags)): ((&[[u8; 3]], &[[u8; 3]]), (&mut [Rgb], &mut [PixelFlags]))| {
@@ -461,13 +461,13 @@ impl Scanner {
             }
             pixel_flags_into(frame, linear, flags)
         };
-        #[cfg(not(target_arch = "wasm32"))]
+        #[cfg(parallel)]
         let usable: usize = {
             use rayon::prelude::*;
             let inputs = colour.pixels().par_chunks(chunk).zip(self.frame.pixels().par_chunks(chunk));
             inputs.zip(self.linear.pixels_mut().par_chunks_mut(chunk).zip(self.flags.par_chunks_mut(chunk))).map(linearize).sum()
         };
-        #[cfg(target_arch = "wasm32")]
+        #[cfg(not(parallel))]
         let usable: usize = {
             let inputs = colour.pixels().chunks(chunk).zip(self.frame.pixels().chunks(chunk));
             inputs.zip(self.linear.pixels_mut().chunks_mut(chunk).zip(self.flags.chunks_mut(chunk))).map(linearize).sum()
@@ -481,7 +481,7 @@ impl Scanner {
         let (predictions, periods) = (&self.predictions, &self.other_families_period);
         let (linear, flags, triangulator) = (self.linear.pixels(), &self.flags[..], &self.triangulator);
         // One family's stages, from its restored image to its depth map with isolated
-        // points removed; the families are independent, so natively they run at once.
+        // points removed; the families are independent, so with threads they run at once.
         type FamilyParts<'a> = (
             &'a mut Restored,
             (&'a mut Segmentation, (&'a mut Decoder, (&'a mut Vec<f32>, (&'a mut Vec<f32>, (&'a mut Image<f32>, (&'a mut Vec<f32>, &'a mut [f64; 4])))))),
@@ -513,8 +513,8 @@ impl Scanner {
             ms[3] = clock.split();
         };
         let r = &mut self.result;
-        // The same zip of every family's parts: in parallel natively, in order in
-        // WebAssembly.
+        // The same zip of every family's parts: in parallel with threads, in order
+        // without (`cfg(parallel)`, build.rs).
         macro_rules! each_family {
             ($s:ident, $iter:ident) => {
                 $s.restored
@@ -526,12 +526,12 @@ impl Scanner {
                     .for_each(family)
             };
         }
-        #[cfg(not(target_arch = "wasm32"))]
+        #[cfg(parallel)]
         {
             use rayon::prelude::*;
             each_family!(self, par_iter_mut);
         }
-        #[cfg(target_arch = "wasm32")]
+        #[cfg(not(parallel))]
         each_family!(self, iter_mut);
         // Each family's own stage times (overlapping when the families ran at once;
         // `segment` includes the smoothing along the stripes of three families), then

@@ -263,7 +263,7 @@ impl Segmentation {
         let (nlines, len) = axis.lines(w, h);
         self.axis = Some(axis);
         self.lines.resize_with(nlines, Vec::new);
-        // Lines are independent: natively, chunks of them run at once, each chunk with
+        // Lines are independent: with threads, chunks of them run at once, each chunk with
         // its own scratch (made at the first frame).
         self.scratch.resize_with(LINE_CHUNKS, LineScratch::default);
         let input = LineInput { restored, linear, flags, axis, period, len };
@@ -281,16 +281,17 @@ pub const LINE_CHUNKS: usize = 8;
 
 /// Split `lines` into as many chunks as there are `scratch` entries (at most; each
 /// chunk gets one) and run `f(index of the chunk's first line, chunk, scratch)` on
-/// each: at once natively, in order in WebAssembly.
+/// each: at once with threads (natively, and in WebAssembly built with `threads`;
+/// `cfg(parallel)`, build.rs), in order without.
 pub fn for_line_chunks<T: Send, S: Send>(lines: &mut [T], scratch: &mut [S], f: impl Fn(usize, &mut [T], &mut S) + Sync + Send) {
     let chunk = lines.len().div_ceil(scratch.len().max(1)).max(1);
     let work = |(c, (lines, sc)): (usize, (&mut [T], &mut S))| f(c * chunk, lines, sc);
-    #[cfg(not(target_arch = "wasm32"))]
+    #[cfg(parallel)]
     {
         use rayon::prelude::*;
         lines.par_chunks_mut(chunk).zip(scratch.par_iter_mut()).enumerate().for_each(work);
     }
-    #[cfg(target_arch = "wasm32")]
+    #[cfg(not(parallel))]
     lines.chunks_mut(chunk).zip(scratch.iter_mut()).enumerate().for_each(work);
 }
 

@@ -40,6 +40,22 @@ fn start() {
     console_error_panic_hook::set_once();
 }
 
+/// The `threads` build only (`pkg-threads/`): `initThreadPool(n)` starts a pool of `n`
+/// web workers sharing this module's memory, on which the stages that run at once
+/// natively then run at once here too. The worker awaits it once, after loading.
+#[cfg(feature = "threads")]
+pub use wasm_bindgen_rayon::init_thread_pool;
+
+/// How many threads a scan's stages may run on: the pool's size in the `threads`
+/// build once it has started, otherwise 1.
+#[wasm_bindgen(js_name = threadCount)]
+pub fn thread_count() -> usize {
+    #[cfg(feature = "threads")]
+    return rayon::current_num_threads();
+    #[cfg(not(feature = "threads"))]
+    return 1;
+}
+
 fn js_error(e: Error) -> JsError {
     JsError::new(&e.to_string())
 }

@@ -13,8 +13,9 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
 # What the page needs, each checked for the security headers.
 SERVED = ["/www/", "/www/index.html", "/www/worker.js", "/www/projector.html"]
-if os.path.exists(os.path.join(ROOT, "pkg", "stripelight.js")):
-    SERVED.append("/pkg/stripelight.js")
+for package in ("pkg", "pkg-threads"):
+    if os.path.exists(os.path.join(ROOT, package, "stripelight.js")):
+        SERVED.append(f"/{package}/stripelight.js")
 
 # Paths that must answer 404, sent exactly as written (no client-side normalization).
 FORBIDDEN = [
@@ -76,7 +77,7 @@ class DemoServer(unittest.TestCase):
                 csp = res.getheader("Content-Security-Policy", "")
                 self.assertIn("default-src 'none'", csp)
                 self.assertIn("script-src 'self' 'wasm-unsafe-eval'", csp)
-                self.assertIn("worker-src 'self'", csp)
+                self.assertIn("worker-src 'self' blob:", csp)
                 self.assertIn("style-src 'self'", csp)
                 self.assertNotIn("unsafe-inline", csp)
                 self.assertEqual(res.getheader("Cross-Origin-Opener-Policy"), "same-origin")

@@ -14,7 +14,8 @@ export class WorkerBridge {
   /**
    * @param {URL} url module worker script
    * @param {{count?: number, onEvent?: (event: {kind: string, message: string}) => void}} options
-   *   `onEvent` hears 'startup-error' and 'crash' events for the page to show.
+   *   `onEvent` hears 'startup-error', 'crash' and 'note' events for the page to show
+   *   ('note': threads were asked for and did not start).
    */
   constructor(url, { count = 1, onEvent = () => {} } = {}) {
     this.url = url;
@@ -27,6 +28,11 @@ export class WorkerBridge {
   /** Resolves once every worker has loaded wasm; rejects with the first start-up error. */
   ready() {
     return Promise.all(this.slots.map((s) => s.ready));
+  }
+
+  /** Threads a worker scans a frame on (1 until the workers are ready, or without threads). */
+  get threads() {
+    return Math.max(1, ...this.slots.map((s) => s.threads ?? 1));
   }
 
   /** Number of requests waiting for a reply, over all workers. */
@@ -87,6 +93,11 @@ export class WorkerBridge {
     switch (msg.type) {
       case 'ready':
         slot.started = true;
+        slot.threads = msg.threads;
+        if (msg.note && !this.noted) {
+          this.noted = true;
+          this.onEvent({ kind: 'note', message: `The decoder scans on one thread: ${msg.note}.` });
+        }
         slot.onReady();
         break;
       case 'startup-error':

@@ -8,7 +8,6 @@
 // pictures for the teaching view). What is sent is copied out of the scanner once and
 // transferred; what is not stays in the scanner until its next frame.
 
-import * as wasm from '../pkg/stripelight.js';
 import { MAX_FRAME_PIXELS, frameSizeProblem } from './frame-size.js';
 
 /**
@@ -25,13 +24,14 @@ export const OPTIONAL_RESULTS = ['families', 'depth', 'correspondence', 'stages'
 
 /**
  * Scan one frame: the request's fields as in worker.js; `progress(message)` tells the page
- * what is under way; `memory` is the instance's WebAssembly.Memory. Returns {value, transfer}.
+ * what is under way; `wasm` is the loaded package's module and `memory` its instance's
+ * WebAssembly.Memory. Returns {value, transfer}.
  */
-export function scanFrame({ specJson, calibJson, filter, crosstalk, width, height, rgba, want = [] }, progress, memory) {
+export function scanFrame({ specJson, calibJson, filter, crosstalk, width, height, rgba, want = [] }, progress, wasm, memory) {
   const started = performance.now();
   const wanted = wantedResults(want);
   refuseLargeFrame(width, height);
-  const scanner = scannerFor(specJson, calibJson, filter, crosstalk, width * height, progress);
+  const scanner = scannerFor(wasm, specJson, calibJson, filter, crosstalk, width * height, progress);
   scanner.setFilter(filter);
   progress(`decoding a ${width}x${height} frame (${filter})`);
   const t0 = performance.now();
@@ -40,7 +40,7 @@ export function scanFrame({ specJson, calibJson, filter, crosstalk, width, heigh
   const reply = resultsOf(scanner, wanted);
   // workerMs: the whole request, copies out of the scanner included; ms: the scan alone.
   Object.assign(reply.value, {
-    stats, ms, workerMs: performance.now() - started, worker: self.name, memoryBytes: memory.buffer.byteLength,
+    stats, ms, workerMs: performance.now() - started, worker: self.name, threads: wasm.threadCount(), memoryBytes: memory.buffer.byteLength,
   });
   return reply;
 }
@@ -56,7 +56,7 @@ export function bytesOf(data) {
   return data instanceof ArrayBuffer ? new Uint8Array(data) : new Uint8Array(data.buffer, data.byteOffset, data.byteLength);
 }
 
-function scannerFor(specJson, calibJson, filter, crosstalk, pixels, progress) {
+function scannerFor(wasm, specJson, calibJson, filter, crosstalk, pixels, progress) {
   const key = [specJson, calibJson, crosstalk ? crosstalk.join(',') : 'none'].join('\u0000');
   let entry = scanners.get(key);
   if (entry) {

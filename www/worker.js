@@ -1,7 +1,9 @@
 // The decoding worker: loads the wasm package once and answers typed messages.
 //
 // Protocol (the page talks to it only through bridge.js):
-//   worker -> page  {type: 'ready'}                         wasm is loaded
+//   worker -> page  {type: 'ready', threads, note}          wasm is loaded; a scan runs on
+//                                                            `threads` threads; `note`
+//                                                            says why not on more, if asked
 //                   {type: 'startup-error', message}        wasm could not be loaded
 //                   {type: 'progress', id, message}         a request is under way
 //                   {type: 'reply', id, ok: true, value}    a request succeeded
@@ -18,15 +20,46 @@
 // Scanning, and which results a scan reply carries (`want`), is worker-scan.js.
 // `panicForTest` and `outOfMemoryForTest` exist only for the end-to-end test.
 
-import init, * as wasm from '../pkg/stripelight.js';
 import { imageSize } from './frame-size.js';
 import { bytesOf, refuseLargeFrame, scanFrame } from './worker-scan.js';
 
 let state = 'loading'; // 'loading' | 'ready' | 'failed'
 let startupError = '';
+/** The wasm package's module (set once it has loaded): pkg-threads/ or pkg/. */
+let wasm = null;
 /** The instance's WebAssembly.Memory (set once wasm has loaded). */
 let memory = null;
 const queue = [];
+
+/**
+ * How many threads the page asks for (`?threads=N` on this script's URL, bridge.js):
+ * 0 or none loads pkg/, which scans on this worker's one thread; N > 0 loads
+ * pkg-threads/ (WebAssembly threads: shared memory and a pool of N web workers, on which
+ * a frame's families and tiles run at once). That needs cross-origin isolation; where it
+ * is missing, or pkg-threads/ fails to load or start its pool, pkg/ is loaded instead.
+ */
+const THREADS_ASKED = Math.max(0, Math.min(16, Number(new URL(self.location.href).searchParams.get('threads')) || 0));
+
+/** Load a package; resolves to {module, memory, threads, note}. */
+async function loadWasm() {
+  let note = '';
+  if (THREADS_ASKED > 0 && !self.crossOriginIsolated) {
+    note = 'the page is not cross-origin isolated, so WebAssembly threads are off';
+  } else if (THREADS_ASKED > 0) {
+    try {
+      const module = await import('../pkg-threads/stripelight.js');
+      const exports = await module.default();
+      await module.initThreadPool(THREADS_ASKED);
+      return { module, memory: exports.memory, threads: module.threadCount(), note };
+    } catch (e) {
+      note = `WebAssembly threads did not start (${messageOf(e)})`;
+    }
+  }
+  if (note) console.warn(`stripelight: ${note}; scanning on one thread`);
+  const module = await import('../pkg/stripelight.js');
+  const exports = await module.default();
+  return { module, memory: exports.memory, threads: 1, note };
+}
 
 function image(img) {
   try {
@@ -81,7 +114,7 @@ const handlers = {
     return image(wasm.decodeImage(data));
   },
   scan(msg, id) {
-    return scanFrame(msg, (message) => progress(id, message), memory);
+    return scanFrame(msg, (message) => progress(id, message), wasm, memory);
   },
   parseCrosstalk({ text }) {
     return { value: [...wasm.parseCrosstalk(text)] };
@@ -189,11 +222,11 @@ self.onmessage = (event) => {
   else handle(event.data);
 };
 
-init()
-  .then((exports) => {
-    memory = exports.memory;
+loadWasm()
+  .then((loaded) => {
+    ({ module: wasm, memory } = loaded);
     state = 'ready';
-    postMessage({ type: 'ready' });
+    postMessage({ type: 'ready', threads: loaded.threads, note: loaded.note });
   })
   .catch((e) => {
     state = 'failed';

@@ -415,7 +415,7 @@ pub struct LogGradFilter {
     /// at once.
     tiles: Option<TileGrid>,
     /// The workspaces: one for the whole frame; for tiles, one per tile restored at
-    /// once (two natively, one in WebAssembly).
+    /// once (two with threads, one without).
     regions: Vec<Region>,
     /// Spectral power of the frame's log image per direction (degrees, 0..180),
     /// summed over the tiles.
@@ -435,8 +435,8 @@ struct Region {
     hxy: Vec<f32>,
     padded: Vec<f32>,
     spectrum: Vec<Complex32>,
-    /// The two inverse transforms' workspaces (`Hxx` and `Hxy`), which natively run
-    /// at once.
+    /// The two inverse transforms' workspaces (`Hxx` and `Hxy`), which with threads
+    /// run at once.
     inverse: [InverseLane; 2],
     /// Per channel: `P = l̃/2`, `Q = A - l̃/2`, `C`, so `ĩ^φ = P + cos2φ·Q + sin2φ·C`.
     p: [Vec<f32>; 3],
@@ -606,9 +606,9 @@ impl LogGradFilter {
         let context = (period.ceil() as usize).clamp(16, 128);
         let grid = TileGrid::new(TileAxis::new(width, tile, overlap, context), TileAxis::new(height, tile, overlap, context));
         let band = (STRIPE_BAND.0.min(0.5 / period as f64), STRIPE_BAND.1);
-        #[cfg(not(target_arch = "wasm32"))]
+        #[cfg(parallel)]
         let workers = rayon::current_num_threads().clamp(1, TILE_WORKERS);
-        #[cfg(target_arch = "wasm32")]
+        #[cfg(not(parallel))]
         let workers = 1;
         let workers = workers.min(grid.x.count() * grid.y.count());
         Ok(LogGradFilter {
@@ -753,19 +753,19 @@ fn check_size(width: usize, height: usize) -> Result<()> {
     Ok(())
 }
 
-/// How many tiles are restored at once natively, at most (each with its own workspace,
+/// How many tiles are restored at once with threads, at most (each with its own workspace,
 /// about 27 floats per pixel of a tile's region), and no more than rayon has threads.
 pub const TILE_WORKERS: usize = 2;
 
 /// Run `f` on each region with its tile of `batch` (as many tiles as regions, or
-/// fewer): at once natively, one after the other in WebAssembly.
+/// fewer): at once with threads, one after the other without.
 fn each_region<T: Sync>(regions: &mut [Region], batch: &[T], f: impl Fn(&mut Region, &T) -> Result<()> + Sync + Send) -> Result<()> {
-    #[cfg(not(target_arch = "wasm32"))]
+    #[cfg(parallel)]
     {
         use rayon::prelude::*;
         regions.par_iter_mut().zip(batch.par_iter()).try_for_each(|(r, t)| f(r, t))
     }
-    #[cfg(target_arch = "wasm32")]
+    #[cfg(not(parallel))]
     regions.iter_mut().zip(batch).try_for_each(|(r, t)| f(r, t))
 }
 
@@ -896,12 +896,12 @@ impl Region {
         self.compose.resize_with(windows.len(), || ComposeScratch { choice: vec![0; g], alpha: vec![0.0; w], beta: vec![0.0; w] });
         let planes = Planes { p: &self.p, q: &self.q, c: &self.c, m: &self.m, width: self.width, height: self.height, gw: self.gw };
         let compose = |((r, w), scratch): ((&mut Restored, &FamilyWindow), &mut ComposeScratch)| planes.compose(scratch, r, w, per_pixel);
-        #[cfg(not(target_arch = "wasm32"))]
+        #[cfg(parallel)]
         {
             use rayon::prelude::*;
             out.par_iter_mut().zip(windows.par_iter()).zip(self.compose.par_iter_mut()).for_each(compose);
         }
-        #[cfg(target_arch = "wasm32")]
+        #[cfg(not(parallel))]
         out.iter_mut().zip(windows.iter()).zip(self.compose.iter_mut()).for_each(compose);
     }
 
@@ -1128,11 +1128,12 @@ impl InverseLane {
     }
 }
 
-/// Run `a` and `b`, at once natively (rayon's pool), one after the other in WebAssembly.
+/// Run `a` and `b`, at once with threads (rayon's pool: natively, and in WebAssembly
+/// built with `threads`; `cfg(parallel)`, build.rs), one after the other without.
 fn join<A: Send, B: Send>(a: impl FnOnce() -> A + Send, b: impl FnOnce() -> B + Send) -> (A, B) {
-    #[cfg(not(target_arch = "wasm32"))]
+    #[cfg(parallel)]
     return rayon::join(a, b);
-    #[cfg(target_arch = "wasm32")]
+    #[cfg(not(parallel))]
     return (a(), b());
 }
 

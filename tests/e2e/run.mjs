@@ -29,7 +29,9 @@
 //      give the same cloud as before;
 //  15. 1000 frames of continuous scanning from the fake webcam: each worker's wasm memory
 //      after the first 20 frames is still its size at the end (it only ever grows), and
-//      the live frame stays one entry of the list; the figures of the run are printed.
+//      the live frame stays one entry of the list; the figures of the run are printed;
+//  16. the page's workers scan on pkg-threads/'s pool (the page is cross-origin
+//      isolated), and with `?threads=0` on pkg/'s one thread: the same cloud.
 // Prints one line per check and `N passed, M failed`; exits non-zero on failure.
 //
 //   node tests/e2e/run.mjs                   run the checks
@@ -263,8 +265,10 @@ function pngHeader(width, height) {
   return [...b]; // compression, filter, interlace 0; the CRC is left 0 (nothing reads it)
 }
 
-/** Scan the stored frame through the worker API directly (no camera, no drop). */
-function scanFixtureDirectly(page) {
+/** Scan the stored frame through the worker API directly (no camera, no drop): its
+ * point count, the worker's threads, and the sum of every coordinate's float bits
+ * (equal sums for equal clouds, whatever the order). */
+function fixtureCloud(page) {
   return page.evaluate(async (path) => {
     const { bridge, state } = window.stripelight;
     const bytes = await (await fetch(`/${path}`)).arrayBuffer();
@@ -273,7 +277,9 @@ function scanFixtureDirectly(page) {
       specJson: state.specJson, calibJson: state.calibJson, filter: 'loggrad',
       width: frame.width, height: frame.height, rgba: frame.rgba,
     });
-    return r.merged.families.length;
+    let sum = 0;
+    for (const bits of new Uint32Array(r.merged.positions.buffer)) sum = (sum + bits) % 4294967291;
+    return { count: r.merged.families.length, threads: r.threads, sum };
   }, FIXTURE);
 }
 
@@ -369,7 +375,7 @@ async function main() {
   });
 
   await check('2 webcam frame decodes to about the direct count', async () => {
-    direct = await scanFixtureDirectly(page);
+    direct = (await fixtureCloud(page)).count;
     assert(direct > 1000, `the stored frame gives only ${direct} points when scanned directly`);
     await context.grantPermissions(['camera'], { origin: server.base });
     await page.click('#camera-start');
@@ -826,6 +832,22 @@ async function main() {
     for (const line of [...memory, heap]) console.log(`     ${line}`);
     return `${end.decoded} frames decoded, wasm memory flat in ${names.length} workers`;
   }, LONG_RUN_LIMIT_MS);
+
+  await check('16 with threads and without, the stored frame gives the same cloud', async () => {
+    const threaded = await fixtureCloud(page);
+    const single = await openPage(browser, `${server.url}?threads=0`);
+    try {
+      await waitForSample(single.page);
+      const plain = await fixtureCloud(single.page);
+      assert(threaded.threads >= 2, `the page's worker scans on ${threaded.threads} thread(s), not on pkg-threads/'s pool`);
+      assert(plain.threads === 1, `with ?threads=0 the worker scans on ${plain.threads} threads`);
+      assert(threaded.count === plain.count && threaded.sum === plain.sum,
+        `${threaded.threads} threads gave ${threaded.count} points (coordinate sum ${threaded.sum}), one thread ${plain.count} (${plain.sum})`);
+      return `${threaded.count} points on ${threaded.threads} threads and on one, coordinates identical`;
+    } finally {
+      await single.context.close();
+    }
+  });
 
   // The GPU notes are SwiftShader's; the panic is check 6's own.
   const pageProblems = main.problems.filter((p) => !/GPU stall|GL Driver Message|deliberate panic/.test(p));
