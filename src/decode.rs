@@ -131,6 +131,8 @@ pub struct Decoder {
     down: Vec<u32>,
     /// The edges of one line whose identities its neighbours contradict.
     dropped: Vec<u32>,
+    /// Per line, whether it is aligned in full after inference left it in doubt.
+    realign: Vec<bool>,
     /// The pixels [`Decoder::stripe_coords_into`] gave their coordinate by extending a
     /// decoded stretch past its last boundary (see [`EXTEND_REACH`]).
     extended: Vec<u32>,
@@ -246,6 +248,7 @@ impl Decoder {
             up: Vec::new(),
             down: Vec::new(),
             dropped: Vec::new(),
+            realign: Vec::new(),
             extended: Vec::new(),
             chains: spec.families.len() >= 2,
             chain_next: Vec::new(),
@@ -302,15 +305,25 @@ impl Decoder {
                 }
             }
         });
+        // Inference reads only the aligned even lines, so the odd lines it leaves in
+        // doubt are then aligned in full at once, as the even ones were.
+        self.realign.clear();
+        self.realign.resize(seg.lines.len(), false);
         for line in (1..seg.lines.len()).step_by(2) {
             let doubtful = match seg.lines.get_mut(line - 1..=line + 1) {
                 Some([before, edges, after]) => self.infer_line(before, after, edges),
                 _ => usize::MAX,
             };
-            if doubtful as f32 > INFER_DOUBT_SHARE * seg.lines[line].len() as f32 {
-                self.aligners[0].align_line(&mut seg.lines[line], increasing, n_ranks, period);
-            }
+            self.realign[line] = doubtful as f32 > INFER_DOUBT_SHARE * seg.lines[line].len() as f32;
         }
+        let realign = &self.realign;
+        for_line_chunks(&mut seg.lines, &mut self.aligners, |start, lines, a| {
+            for (k, edges) in lines.iter_mut().enumerate() {
+                if realign[start + k] {
+                    a.align_line(edges, increasing, n_ranks, period);
+                }
+            }
+        });
         self.check_across_lines(seg);
         for sweep in 0..PROPAGATION_SWEEPS {
             self.propagate(seg, sweep % 2 == 0);

@@ -434,7 +434,9 @@ struct Region {
     hxx: Vec<f32>,
     hxy: Vec<f32>,
     padded: Vec<f32>,
-    spectrum: Vec<Complex32>,
+    /// Two spectra: with threads, one channel's inverse transforms read one while the
+    /// next channel's forward transform writes the other.
+    spectra: [Vec<Complex32>; 2],
     /// The two inverse transforms' workspaces (`Hxx` and `Hxy`), which with threads
     /// run at once.
     inverse: [InverseLane; 2],
@@ -863,7 +865,7 @@ impl Region {
             hxx,
             hxy,
             padded: vec![0.0; pw * ph],
-            spectrum: vec![Complex32::new(0.0, 0.0); spectrum_len],
+            spectra: [vec![Complex32::new(0.0, 0.0); spectrum_len], vec![Complex32::new(0.0, 0.0); spectrum_len]],
             inverse: [InverseLane::new(pw, ph), InverseLane::new(pw, ph)],
             p: [plane(), plane(), plane()],
             q: [plane(), plane(), plane()],
@@ -905,66 +907,56 @@ impl Region {
         out.iter_mut().zip(windows.iter()).zip(self.compose.iter_mut()).for_each(compose);
     }
 
-    /// The log image of one channel of the region of `linear` at `origin` (the planes'
-    /// size), padded and transformed into `spectrum`; its `tmp` holds the log region.
-    fn forward_channel(&mut self, linear: &Image<Rgb>, origin: (usize, usize), ch: usize) -> Result<()> {
-        let (w, h, pw, ph) = (self.width, self.height, self.pw, self.ph);
-        log_region_into(linear, origin, (w, h), ch, &mut self.tmp);
-        pad_into(&self.tmp, w, h, &mut self.padded, pw, ph);
-        self.fft.forward(&self.padded, &mut self.spectrum)
-    }
-
-    /// Add the spectrum's power in the stripe band to `direction_power`.
-    fn add_direction_power(&mut self) {
-        for (bin, s) in self.direction_bin.iter().zip(&self.spectrum) {
-            if *bin != u16::MAX {
-                self.direction_power[*bin as usize] += s.norm_sqr() as f64;
-            }
-        }
-    }
-
     /// Add the stripe-band power of every channel of the region at `origin` to the
     /// region's `direction_power`.
     fn accumulate_power(&mut self, linear: &Image<Rgb>, origin: (usize, usize)) -> Result<()> {
+        let size = (self.width, self.height, self.pw, self.ph);
+        let Region { fft, tmp, padded, spectra, direction_bin, direction_power, .. } = self;
+        let mut forward = Forward { linear, origin, size, fft, log: tmp, padded };
         for ch in 0..3 {
-            self.forward_channel(linear, origin, ch)?;
-            self.add_direction_power();
+            forward.transform(ch, &mut spectra[0])?;
+            add_band_power(direction_bin, &spectra[0], direction_power);
         }
         Ok(())
     }
 
     /// The planes P, Q, C of every channel (eq. 5-6 for all angles at once) of the
     /// region of `linear` at `origin`; with `power`, `direction_power` is the region's.
+    ///
+    /// Each channel's forward transform (with P) and its two inverse transforms (Q and
+    /// C); with threads, the next channel's forward transform runs while this one's
+    /// inverse transforms do, through a second spectrum.
     fn steerable_planes(&mut self, linear: &Image<Rgb>, origin: (usize, usize), power: bool) -> Result<()> {
-        let (w, h, pw, ph) = (self.width, self.height, self.pw, self.ph);
+        let (w, h) = (self.width, self.height);
         if power {
             self.direction_power.iter_mut().for_each(|p| *p = 0.0);
         }
-        for ch in 0..3 {
-            self.forward_channel(linear, origin, ch)?;
+        let size = (w, h, self.pw, self.ph);
+        let Region { fft, tmp, padded, spectra, direction_bin, direction_power, p, q, c, hxx, hxy, inverse, .. } = self;
+        let mut forward = Forward { linear, origin, size, fft, log: tmp, padded };
+        // The forward half of channel `ch`: its spectrum, its band power, and P.
+        let mut forward_half = |ch: usize, spectrum: &mut [Complex32], p: &mut [f32]| -> Result<()> {
+            forward.transform(ch, spectrum)?;
             if power {
-                self.add_direction_power();
+                add_band_power(direction_bin, spectrum, direction_power);
             }
-            // l̃ = l minus its components at the four null frequencies (real for a
-            // real image): DC, (π,0), (0,π), (π,π).
-            let n = (pw * ph) as f32;
-            let mode = |k: usize, l: usize| self.spectrum[k * ph + l].re / n;
-            let (m00, m10, m01, m11) = (mode(0, 0), mode(pw / 2, 0), mode(0, ph / 2), mode(pw / 2, ph / 2));
-            for y in 0..h {
-                let sy = if y % 2 == 0 { 1.0 } else { -1.0 };
-                // The modes' sum at even and at odd columns of this row.
-                let modes = [1.0f32, -1.0].map(|sx| m00 + sx * m10 + sy * m01 + sx * sy * m11);
-                let row = y * w..(y + 1) * w;
-                for (x, (p, t)) in self.p[ch][row.clone()].iter_mut().zip(&self.tmp[row]).enumerate() {
-                    *p = 0.5 * (t - modes[x % 2]);
-                }
-            }
+            forward.half_log_without_null_modes(spectrum, p);
+            Ok(())
+        };
+        forward_half(0, &mut spectra[0], &mut p[0])?;
+        for ch in 0..3 {
+            let (first, second) = spectra.split_at_mut(1);
+            let (spectrum, next) = if ch % 2 == 0 { (&first[0], &mut second[0]) } else { (&second[0], &mut first[0]) };
+            let (done, rest) = p.split_at_mut(ch + 1);
+            let [lane_xx, lane_xy] = &mut *inverse;
+            let (q, c, p) = (&mut q[ch], &mut c[ch], &done[ch]);
             // The two inverse transforms, `Hxx` into Q = A - l̃/2 = A - P and `Hxy`
             // into C.
-            let spectrum = &self.spectrum;
-            let [lane_xx, lane_xy] = &mut self.inverse;
-            let (p, q, c) = (&self.p[ch], &mut self.q[ch], &mut self.c[ch]);
-            let (rxx, rxy) = join(|| lane_xx.restore(spectrum, &self.hxx, Some(p), q, w, h), || lane_xy.restore(spectrum, &self.hxy, None, c, w, h));
+            let (ahead, (rxx, rxy)) = join(
+                || rest.first_mut().map_or(Ok(()), |p_next| forward_half(ch + 1, next, p_next)),
+                || join(|| lane_xx.restore(spectrum, hxx, Some(p), q, w, h), || lane_xy.restore(spectrum, hxy, None, c, w, h)),
+            );
+            ahead?;
             rxx?;
             rxy?;
         }
@@ -1097,6 +1089,58 @@ impl Planes<'_> {
 }
 
 /// One inverse transform's plan and buffers.
+/// The forward transform of a region's channels: the plan and the buffers it borrows
+/// from its [`Region`], which it leaves free for the inverse transforms.
+struct Forward<'a> {
+    linear: &'a Image<Rgb>,
+    origin: (usize, usize),
+    /// The region's size and its padded size.
+    size: (usize, usize, usize, usize),
+    fft: &'a mut Fft2,
+    /// The last channel's log region.
+    log: &'a mut [f32],
+    padded: &'a mut [f32],
+}
+
+impl Forward<'_> {
+    /// The log image of channel `ch` of the region (kept in `log`), padded and
+    /// transformed into `spectrum`.
+    fn transform(&mut self, ch: usize, spectrum: &mut [Complex32]) -> Result<()> {
+        let (w, h, pw, ph) = self.size;
+        log_region_into(self.linear, self.origin, (w, h), ch, self.log);
+        pad_into(self.log, w, h, self.padded, pw, ph);
+        self.fft.forward(self.padded, spectrum)
+    }
+
+    /// `P = l̃/2` of the channel last transformed (its `spectrum`) into `p`: l̃ is the log
+    /// image minus its components at the four null frequencies (real for a real image):
+    /// DC, (π,0), (0,π), (π,π).
+    fn half_log_without_null_modes(&self, spectrum: &[Complex32], p: &mut [f32]) {
+        let (w, h, pw, ph) = self.size;
+        let n = (pw * ph) as f32;
+        let mode = |k: usize, l: usize| spectrum[k * ph + l].re / n;
+        let (m00, m10, m01, m11) = (mode(0, 0), mode(pw / 2, 0), mode(0, ph / 2), mode(pw / 2, ph / 2));
+        for y in 0..h {
+            let sy = if y % 2 == 0 { 1.0 } else { -1.0 };
+            // The modes' sum at even and at odd columns of this row.
+            let modes = [1.0f32, -1.0].map(|sx| m00 + sx * m10 + sy * m01 + sx * sy * m11);
+            let row = y * w..(y + 1) * w;
+            for (x, (p, t)) in p[row.clone()].iter_mut().zip(&self.log[row]).enumerate() {
+                *p = 0.5 * (t - modes[x % 2]);
+            }
+        }
+    }
+}
+
+/// Add the power of `spectrum` in the stripe band to `power` (per direction bin).
+fn add_band_power(bins: &[u16], spectrum: &[Complex32], power: &mut [f64]) {
+    for (bin, s) in bins.iter().zip(spectrum) {
+        if *bin != u16::MAX {
+            power[*bin as usize] += s.norm_sqr() as f64;
+        }
+    }
+}
+
 struct InverseLane {
     fft: Fft2,
     work: Vec<Complex32>,
