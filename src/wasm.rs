@@ -399,8 +399,16 @@ pub fn encode_pfm_rgb_js(values: &[f32], width: u32, height: u32) -> Result<Vec<
 }
 
 /// Panics on purpose, so that the page's recovery from a panicking worker can be
-/// tested end to end. Nothing else calls it.
+/// tested end to end. Nothing else calls it. With `in_pool`, in the `threads` build,
+/// the panic happens on a thread of the pool, which stops there: the worker then waits
+/// for the pool's answer for ever, and the page has to see that it hangs.
 #[wasm_bindgen(js_name = panicForTest)]
-pub fn panic_for_test() {
+pub fn panic_for_test(in_pool: bool) {
+    #[cfg(feature = "threads")]
+    if in_pool {
+        rayon::join(|| (), || panic!("deliberate panic on a thread of the pool, requested by the page's self-test"));
+    }
+    #[cfg(not(feature = "threads"))]
+    let _ = in_pool;
     panic!("deliberate panic requested by the page's self-test");
 }

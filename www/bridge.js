@@ -3,12 +3,23 @@
 // `request(type, payload, transfer)` returns a promise for the worker's reply. Requests
 // go to the worker with the fewest outstanding requests, so with two workers two frames
 // decode at once (the target machine has two cores). A worker that crashes (a Rust
-// panic, or an uncaught error) fails its outstanding requests with the reason and is
-// replaced by a fresh one; the page keeps working.
+// panic, or an uncaught error) or leaves a request unanswered too long (hung) fails its
+// outstanding requests with the reason and is replaced by a fresh one; the page keeps
+// working.
 
 /** A worker that fails this many times within RESTART_WINDOW_MS is not restarted again. */
 const MAX_RESTARTS = 5;
 const RESTART_WINDOW_MS = 60_000;
+
+/**
+ * How long a request may go unanswered before its worker is taken for hung, replaced, and
+ * its requests failed: REPLY_LIMIT_MS, plus REPLY_MS_PER_PIXEL for each pixel of a frame
+ * the request carries (a 12-megapixel scan gets about 2.5 minutes, a VGA one 23 s). A
+ * worker hangs where a thread of its pool (pkg-threads/) panics: the pool thread stops,
+ * and the worker waits for its part of the frame for ever.
+ */
+const REPLY_LIMIT_MS = 20_000;
+const REPLY_MS_PER_PIXEL = 0.01;
 
 export class WorkerBridge {
   /**
@@ -45,18 +56,30 @@ export class WorkerBridge {
    * @param {string} type request type (see worker.js)
    * @param {object} payload fields of the request
    * @param {Transferable[]} transfer buffers to move to the worker (they become unusable here)
-   * @param {{onProgress?: (message: string) => void}} options
+   * @param {{onProgress?: (message: string) => void, limitMs?: number}} options
+   *   `limitMs`: how long to wait for the reply before the worker is taken for hung
+   *   (default: REPLY_LIMIT_MS and the frame's size, see there)
    */
-  request(type, payload = {}, transfer = [], { onProgress } = {}) {
+  request(type, payload = {}, transfer = [], { onProgress, limitMs } = {}) {
     const slot = this.slots.reduce((a, b) => (b.pending.size < a.pending.size ? b : a));
     const id = this.nextId++;
+    const pixels = (payload.width * payload.height) || 0;
+    const limit = limitMs ?? REPLY_LIMIT_MS + REPLY_MS_PER_PIXEL * pixels;
     return new Promise((resolve, reject) => {
-      slot.pending.set(id, { resolve, reject, onProgress });
+      const timer = setTimeout(() => {
+        const seconds = (limit / 1000).toFixed(limit < 10_000 ? 1 : 0);
+        this.#crashed(slot, `The decoder stopped answering (no reply to ${type} in ${seconds} s)`);
+      }, limit);
+      const settle = (fn) => (value) => {
+        clearTimeout(timer);
+        fn(value);
+      };
+      slot.pending.set(id, { resolve: settle(resolve), reject: settle(reject), onProgress });
       try {
         slot.worker.postMessage({ ...payload, type, id }, transfer);
       } catch (e) {
         slot.pending.delete(id);
-        reject(e);
+        settle(reject)(e);
       }
     });
   }

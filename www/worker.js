@@ -131,8 +131,8 @@ const handlers = {
     const bytes = wasm.encodePfm(depth, width, height);
     return { value: bytes, transfer: [bytes.buffer] };
   },
-  panicForTest() {
-    wasm.panicForTest();
+  panicForTest({ inPool }) {
+    wasm.panicForTest(Boolean(inPool));
     return { value: null };
   },
   // Runs out of memory the way a huge frame does: the instance's memory is grown to the
