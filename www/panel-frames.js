@@ -184,7 +184,8 @@ export function summary(entry) {
   if (!r) return entry.error;
   const fam = r.stats.decoded.map((n, k) => `family ${k + 1}: ${n.toLocaleString('en')}`).join(' · ');
   const mixing = entry.crosstalk === 'simulator' ? ' · simulator’s colour mixing undone' : '';
-  return `${entry.name}: ${r.merged.families.length.toLocaleString('en')} points (${fam}) · ${r.stats.filter}${mixing} · ${r.ms.toFixed(0)} ms`;
+  const threads = r.threads > 1 ? ` on ${r.threads} threads` : '';
+  return `${entry.name}: ${r.merged.families.length.toLocaleString('en')} points (${fam}) · ${r.stats.filter}${mixing} · ${r.ms.toFixed(0)} ms${threads}`;
 }
 
 /** The crosstalk setting for a kind of frame: simulated ones use the simulator's. */
