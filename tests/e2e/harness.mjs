@@ -78,9 +78,12 @@ export async function launch(extra = []) {
   );
 }
 
-/** Open the page and collect its console errors and uncaught exceptions. */
-export async function openPage(browser, url, { initScript } = {}) {
+/** Open the page and collect its console errors and uncaught exceptions; `route`:
+ * [URL pattern, handler] for the context's requests (to block a file, say). */
+export async function openPage(browser, url, { initScript, route } = {}) {
   const context = await browser.newContext({ viewport: { width: 1360, height: 1000 }, acceptDownloads: true });
+  // [pattern, handler]: requests of the page and its workers to intercept.
+  if (route) await context.route(...route);
   const page = await context.newPage();
   page.setDefaultTimeout(30_000);
   const problems = [];

@@ -33,7 +33,8 @@
 //      after the first 20 frames is still its size at the end (it only ever grows), and
 //      the live frame stays one entry of the list; the figures of the run are printed;
 //  16. the page's workers scan on pkg-threads/'s pool (the page is cross-origin
-//      isolated), and with `?threads=0` on pkg/'s one thread: the same cloud.
+//      isolated), and with `?threads=0` on pkg/'s one thread: the same cloud; where
+//      pkg-threads/ cannot be loaded, the page says so and scans on pkg/.
 // Prints one line per check and `N passed, M failed`; exits non-zero on failure.
 //
 //   node tests/e2e/run.mjs                   run the checks
@@ -857,9 +858,21 @@ async function main() {
       assert(plain.threads === 1, `with ?threads=0 the worker scans on ${plain.threads} threads`);
       assert(threaded.count === plain.count && threaded.sum === plain.sum,
         `${threaded.threads} threads gave ${threaded.count} points (coordinate sum ${threaded.sum}), one thread ${plain.count} (${plain.sum})`);
-      return `${threaded.count} points on ${threaded.threads} threads and on one, coordinates identical`;
     } finally {
       await single.context.close();
+    }
+    // pkg-threads/ missing (or refused): the worker falls back to pkg/ and says so.
+    const blocked = await openPage(browser, server.url, {
+      route: ['**/pkg-threads/**', (route) => route.abort()],
+    });
+    try {
+      await waitForSample(blocked.page);
+      const note = clean(await waitForMessage(blocked.page, 'scans on one thread'));
+      const fallback = await fixtureCloud(blocked.page);
+      assert(fallback.threads === 1 && fallback.sum === threaded.sum, `without pkg-threads/ the worker gave ${fallback.count} points on ${fallback.threads} threads`);
+      return `${threaded.count} points on ${threaded.threads} threads and on one, coordinates identical; without pkg-threads/: "${note.slice(0, 80)}…"`;
+    } finally {
+      await blocked.context.close();
     }
   });
 
