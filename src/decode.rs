@@ -150,8 +150,10 @@ pub struct Decoder {
     /// The pixels of the last [`Decoder::stripe_coords_into`] whose coordinate comes
     /// from a boundary its chain labelled.
     weak: Vec<u32>,
-    /// One line's edges without the chains' labels (scratch).
-    masked: Vec<Edge>,
+    /// Per chunk of lines ([`LINE_CHUNKS`]) of a family whose lines are rows, where
+    /// [`Decoder::stripe_coords_into`] runs the chunks at once with threads: the
+    /// chunk's masked line and the pixels it extended and took from chain labels.
+    coord_chunks: Vec<CoordChunk>,
 }
 
 /// The alignment of a run to the pattern with its buffers.
@@ -255,7 +257,7 @@ impl Decoder {
             chain_linked: Vec::new(),
             chain_labelled: Vec::new(),
             weak: Vec::new(),
-            masked: Vec::new(),
+            coord_chunks: Vec::new(),
             chain: Vec::new(),
             votes: Vec::new(),
         }
@@ -635,32 +637,69 @@ impl Decoder {
         };
         // The chains' labels, when they ran on these lines (flat order).
         let chain_labelled = std::mem::take(&mut self.chain_labelled);
-        let mut masked = std::mem::take(&mut self.masked);
         let labelled_by_chains = chain_labelled.len() == seg.lines.iter().map(Vec::len).sum::<usize>();
-        let mut flat = 0;
-        for (line, edges) in seg.lines.iter().enumerate() {
-            let weak: &[bool] = if labelled_by_chains { &chain_labelled[flat..flat + edges.len()] } else { &[] };
-            flat += edges.len();
-            // First the line as it was before the chains labelled any boundary, then,
-            // where they did, what their labels add, into the pixels still empty.
-            if weak.contains(&true) {
-                masked.clear();
-                masked.extend(edges.iter().zip(weak).map(|(e, &w)| if w { Edge { id: -1, ..*e } } else { *e }));
-                self.line_coords(&masked, None, line, axis, linear, width, line_len, max_width, step, out);
-                self.line_coords(edges, Some(weak), line, axis, linear, width, line_len, max_width, step, out);
-            } else {
-                self.line_coords(edges, None, line, axis, linear, width, line_len, max_width, step, out);
+        let mut chunks = std::mem::take(&mut self.coord_chunks);
+        let geometry = LineGeometry { axis, linear, width, line_len, max_width, step };
+        // Lines that are rows own their rows of `out`: chunks of them at once with
+        // threads. Columns interleave in `out`: one chunk, in order.
+        let per_chunk = match axis {
+            ScanAxis::Rows => seg.lines.len().div_ceil(LINE_CHUNKS).max(1),
+            ScanAxis::Columns => seg.lines.len().max(1),
+        };
+        let pixels_per_chunk = match axis {
+            ScanAxis::Rows => per_chunk * width,
+            ScanAxis::Columns => out.len().max(1),
+        };
+        chunks.resize_with(seg.lines.len().div_ceil(per_chunk).max(1), CoordChunk::default);
+        let this = &*self;
+        let chunk_work = |(c, ((lines, out), chunk)): (usize, ((&[Vec<Edge>], &mut [f32]), &mut CoordChunk))| {
+            chunk.extended.clear();
+            chunk.weak.clear();
+            let first = c * per_chunk;
+            let base = c * pixels_per_chunk;
+            let mut flat: usize = seg.lines[..first].iter().map(Vec::len).sum();
+            for (k, edges) in lines.iter().enumerate() {
+                let weak: &[bool] = if labelled_by_chains { &chain_labelled[flat..flat + edges.len()] } else { &[] };
+                flat += edges.len();
+                let at = LineOut { line: first + k, base };
+                // First the line as it was before the chains labelled any boundary,
+                // then, where they did, what their labels add, into the pixels still
+                // empty.
+                if weak.contains(&true) {
+                    let mut masked = std::mem::take(&mut chunk.masked);
+                    masked.clear();
+                    masked.extend(edges.iter().zip(weak).map(|(e, &w)| if w { Edge { id: -1, ..*e } } else { *e }));
+                    this.line_coords(&masked, None, at, &geometry, out, chunk);
+                    this.line_coords(edges, Some(weak), at, &geometry, out, chunk);
+                    chunk.masked = masked;
+                } else {
+                    this.line_coords(edges, None, at, &geometry, out, chunk);
+                }
             }
+        };
+        #[cfg(parallel)]
+        {
+            use rayon::prelude::*;
+            seg.lines.par_chunks(per_chunk).zip(out.par_chunks_mut(pixels_per_chunk)).zip(chunks.par_iter_mut()).enumerate().for_each(chunk_work);
         }
+        #[cfg(not(parallel))]
+        seg.lines.chunks(per_chunk).zip(out.chunks_mut(pixels_per_chunk)).zip(chunks.iter_mut()).enumerate().for_each(chunk_work);
+        for chunk in &chunks {
+            self.extended.extend_from_slice(&chunk.extended);
+            self.weak.extend_from_slice(&chunk.weak);
+        }
+        self.coord_chunks = chunks;
         self.chain_labelled = chain_labelled;
-        self.masked = masked;
     }
 
-    /// [`Decoder::stripe_coords_into`] of one line's `edges`. With `weak` (which edges
-    /// their chains labelled), only the stripes with a weak boundary at either end, into
-    /// pixels still empty, listed in [`Decoder::weak`].
-    #[allow(clippy::too_many_arguments)]
-    fn line_coords(&mut self, edges: &[Edge], weak: Option<&[bool]>, line: usize, axis: ScanAxis, linear: &[[f32; 3]], width: usize, line_len: usize, max_width: f32, step: i32, out: &mut [f32]) {
+    /// [`Decoder::stripe_coords_into`] of one line's `edges`, into `out`, the part of
+    /// the frame's coordinates from `at.base` on, listing the pixels it extends and,
+    /// with `weak` (which edges their chains labelled), those it gives a coordinate in
+    /// `chunk`. With `weak`, only the stripes with a weak boundary at either end, into
+    /// pixels still empty.
+    fn line_coords(&self, edges: &[Edge], weak: Option<&[bool]>, at: LineOut, g: &LineGeometry, out: &mut [f32], chunk: &mut CoordChunk) {
+        let (axis, linear, width, line_len, max_width, step) = (g.axis, g.linear, g.width, g.line_len, g.max_width, g.step);
+        let line = at.line;
         let is_weak = |k: usize| weak.is_some_and(|w| w[k]);
         for (k, pair) in edges.windows(2).enumerate() {
             let (a, b) = (pair[0], pair[1]);
@@ -700,16 +739,18 @@ impl Decoder {
             let mut s = a.pos.ceil() as usize;
             while (s as f32) < b.pos {
                 let (i, t) = (axis_index(axis, line, s, width), (s as f32 - a.pos) / (b.pos - a.pos));
+                let q = &mut out[i - at.base];
                 if weak.is_none() {
-                    out[i] = a.id as f32 + (b.id - a.id) as f32 * t;
-                } else if out[i].is_nan() {
-                    out[i] = a.id as f32 + (b.id - a.id) as f32 * t;
-                    self.weak.push(i as u32);
+                    *q = a.id as f32 + (b.id - a.id) as f32 * t;
+                } else if q.is_nan() {
+                    *q = a.id as f32 + (b.id - a.id) as f32 * t;
+                    chunk.weak.push(i as u32);
                 }
                 s += 1;
             }
         }
-        let light_line = LineLight { linear, axis, line, line_len, width };
+        let light_line = LineLight { linear, axis, line, line_len, width, base: at.base };
+        let CoordChunk { extended, weak: weak_pixels, .. } = chunk;
         for (i, a) in edges.iter().enumerate() {
             if a.id < 0 {
                 continue;
@@ -718,19 +759,19 @@ impl Decoder {
             // before `a` when the one after it is the stripe after it.
             let before = i.checked_sub(1).map(|k| edges[k]);
             let after = edges.get(i + 1).copied();
-            let from = self.extended.len();
+            let from = extended.len();
             if let Some(w) = before.and_then(|p| stripe_width(&p, a, step)) {
                 if weak.is_none() || is_weak(i) || is_weak(i - 1) {
-                    extend_stripe(&light_line, a, w, 1, after.map(|e| e.pos), step, out, &mut self.extended);
+                    extend_stripe(&light_line, a, w, 1, after.map(|e| e.pos), step, out, extended);
                 }
             }
             if let Some(w) = after.and_then(|n| stripe_width(a, &n, step)) {
                 if weak.is_none() || is_weak(i) || is_weak(i + 1) {
-                    extend_stripe(&light_line, a, w, -1, before.map(|e| e.pos), step, out, &mut self.extended);
+                    extend_stripe(&light_line, a, w, -1, before.map(|e| e.pos), step, out, extended);
                 }
             }
             if weak.is_some() {
-                self.weak.extend_from_slice(&self.extended[from..]);
+                weak_pixels.extend_from_slice(&extended[from..]);
             }
         }
     }
@@ -774,12 +815,44 @@ pub const EXTEND_LIGHT_RATIO: f32 = 1.3;
 pub const EXTEND_CHROMA: f32 = 0.1;
 
 /// One scan line of the frame's linear colour.
+/// Which line [`Decoder::line_coords`] decodes, and the frame index of the first
+/// pixel of the part of the coordinates it is given (0: the whole frame).
+#[derive(Clone, Copy)]
+struct LineOut {
+    line: usize,
+    base: usize,
+}
+
+/// What [`Decoder::line_coords`] reads of every line of a family: the lines' axis, the
+/// frame's linear colour and width, the length of a line, the widest stripe that is
+/// bridged, and the direction identities grow in along a line.
+struct LineGeometry<'a> {
+    axis: ScanAxis,
+    linear: &'a [[f32; 3]],
+    width: usize,
+    line_len: usize,
+    max_width: f32,
+    step: i32,
+}
+
+/// A chunk of lines' workspace for [`Decoder::stripe_coords_into`]: one line's edges
+/// without the chains' labels, and the pixels the chunk extended and took from chain
+/// labels (frame indices, in line order).
+#[derive(Default)]
+struct CoordChunk {
+    masked: Vec<Edge>,
+    extended: Vec<u32>,
+    weak: Vec<u32>,
+}
+
 struct LineLight<'a> {
     linear: &'a [[f32; 3]],
     axis: ScanAxis,
     line: usize,
     line_len: usize,
     width: usize,
+    /// The frame index of the first pixel of the coordinates [`extend_stripe`] writes.
+    base: usize,
 }
 
 impl LineLight<'_> {
@@ -819,7 +892,7 @@ fn chromaticity(p: [f32; 3]) -> [f32; 3] {
 #[allow(clippy::too_many_arguments)]
 fn extend_stripe(line: &LineLight, a: &Edge, w: f32, d: isize, limit: Option<f32>, step: i32, out: &mut [f32], extended: &mut Vec<u32>) {
     let first = if d > 0 { a.pos.ceil() } else { a.pos.floor() } as isize;
-    if !line.inside(first) || !out[line.index(first)].is_nan() {
+    if !line.inside(first) || !out[line.index(first) - line.base].is_nan() {
         return;
     }
     // The new stripe's light and colour are those of its second pixel: the first lies
@@ -858,8 +931,8 @@ fn extend_stripe(line: &LineLight, a: &Edge, w: f32, d: isize, limit: Option<f32
     for k in 0..n.max(0) {
         let s = first + d * k;
         let i = line.index(s);
-        if out[i].is_nan() {
-            out[i] = a.id as f32 + step as f32 * (s as f32 - a.pos) / w;
+        if out[i - line.base].is_nan() {
+            out[i - line.base] = a.id as f32 + step as f32 * (s as f32 - a.pos) / w;
             extended.push(i as u32);
         }
     }
