@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# Installs what is missing, builds the wasm package and serves the web demo.
+# Installs what is missing, builds the wasm packages (pkg/ and pkg-threads/) and serves
+# the web demo.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 scripts/setup.sh
