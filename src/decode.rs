@@ -299,33 +299,21 @@ impl Decoder {
     pub fn run(&mut self, seg: &mut Segmentation, period: f32) {
         // Every other line is aligned on its own (with threads, chunks of lines at once);
         // the lines between take what the lines either side agree on.
-        let (n_ranks, increasing) = (self.codes.len() as i32, self.increasing);
-        for_line_chunks(&mut seg.lines, &mut self.aligners, |start, lines, a| {
-            for (k, edges) in lines.iter_mut().enumerate() {
-                if (start + k) % 2 == 0 {
-                    a.align_line(edges, increasing, n_ranks, period);
-                }
-            }
-        });
+        self.align_lines(seg, period, |line| line % 2 == 0);
         // Inference reads only the aligned even lines, so the odd lines it leaves in
         // doubt are then aligned in full at once, as the even ones were.
-        self.realign.clear();
-        self.realign.resize(seg.lines.len(), false);
+        let mut realign = std::mem::take(&mut self.realign);
+        realign.clear();
+        realign.resize(seg.lines.len(), false);
         for line in (1..seg.lines.len()).step_by(2) {
             let doubtful = match seg.lines.get_mut(line - 1..=line + 1) {
                 Some([before, edges, after]) => self.infer_line(before, after, edges),
                 _ => usize::MAX,
             };
-            self.realign[line] = doubtful as f32 > INFER_DOUBT_SHARE * seg.lines[line].len() as f32;
+            realign[line] = doubtful as f32 > INFER_DOUBT_SHARE * seg.lines[line].len() as f32;
         }
-        let realign = &self.realign;
-        for_line_chunks(&mut seg.lines, &mut self.aligners, |start, lines, a| {
-            for (k, edges) in lines.iter_mut().enumerate() {
-                if realign[start + k] {
-                    a.align_line(edges, increasing, n_ranks, period);
-                }
-            }
-        });
+        self.align_lines(seg, period, |line| realign[line]);
+        self.realign = realign;
         self.check_across_lines(seg);
         for sweep in 0..PROPAGATION_SWEEPS {
             self.propagate(seg, sweep % 2 == 0);
@@ -333,6 +321,19 @@ impl Decoder {
         if self.chains {
             self.label_chains(seg);
         }
+    }
+
+    /// Align the lines of `seg` that `chosen` picks (by index), each on its own (with
+    /// threads, chunks of lines at once).
+    fn align_lines(&mut self, seg: &mut Segmentation, period: f32, chosen: impl Fn(usize) -> bool + Sync + Send) {
+        let (n_ranks, increasing) = (self.codes.len() as i32, self.increasing);
+        for_line_chunks(&mut seg.lines, &mut self.aligners, |start, lines, a| {
+            for (k, edges) in lines.iter_mut().enumerate() {
+                if chosen(start + k) {
+                    a.align_line(edges, increasing, n_ranks, period);
+                }
+            }
+        });
     }
 
     /// Label boundaries by their chains across lines where no line was sure, after the
@@ -814,7 +815,6 @@ pub const EXTEND_LIGHT_RATIO: f32 = 1.3;
 /// extended stripe's second pixel to an extended pixel.
 pub const EXTEND_CHROMA: f32 = 0.1;
 
-/// One scan line of the frame's linear colour.
 /// Which line [`Decoder::line_coords`] decodes, and the frame index of the first
 /// pixel of the part of the coordinates it is given (0: the whole frame).
 #[derive(Clone, Copy)]
@@ -845,6 +845,7 @@ struct CoordChunk {
     weak: Vec<u32>,
 }
 
+/// One scan line of the frame's linear colour.
 struct LineLight<'a> {
     linear: &'a [[f32; 3]],
     axis: ScanAxis,
