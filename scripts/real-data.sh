@@ -28,14 +28,14 @@
 #    calibration.m is Bouguet-style text (camera left, projector right, X_p = R X_c + T,
 #    T in mm), imported as it is.
 #
-# Figures on 2026-12-01 (coverage = object pixels with a point; fit = least squares;
+# Figures on 2026-12-04 (coverage = object pixels with a point; fit = least squares;
 # docs/third-party.md has the earlier ones):
 #   zion default (gamma 2.2)           0 points: the black gaps are below the dark level
-#   zion linear (gamma 1)              30.3 %, radius 96.4 mm, RMS 0.95 mm, 4.6 % > 2 mm
-#   zion linear, measured mixing        3.6 %, radius 93.4 mm, RMS 0.44 mm
-#   zion linear, green-into-blue only  30.7 %, radius 97.1 mm, RMS 1.01 mm, 4.8 % > 2 mm
-#   tingck wall                         7.6 %, plane RMS 11.9 mm (4.8 mm within 10 mm, 81 %)
-#   tingck hand                         0.61 %
+#   zion linear (gamma 1)              26.2 %, radius 95.4 mm, RMS 0.68 mm, 0.8 % > 2 mm
+#   zion linear, measured mixing        0 points
+#   zion linear, green-into-blue only  25.8 %, radius 95.5 mm, RMS 0.71 mm, 1.2 % > 2 mm
+#   tingck wall                         8.2 %, plane RMS 16.2 mm
+#   tingck hand                         0.81 %
 #
 # Needs: cargo, python3 (standard library only), git when MIRRORS holds git directories.
 set -euo pipefail

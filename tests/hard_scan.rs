@@ -39,34 +39,36 @@ use stripelight::eval::hard::{condition, HardEval};
 /// Taking the surface's own change of colour out of each boundary's steps
 /// (`surface_change` in `segment.rs`) raised the bag from 55.9 to 62.6 % and
 /// textured/world from 93.9 to 95.4 %, and took occluders/wide from 0.94 to 0.68 %
-/// outliers.
+/// outliers; but that first form left a real capture's lobed stripes empty, and the
+/// form kept (slopes that agree in sign and plateaus that fit a line) gives the bag
+/// 59.0 %, textured/world 94.7 % and occluders/wide 0.73 %.
 const MEASURED: &[(&str, &str, f64, f64)] = &[
-    ("colorchecker", "default", 0.8612, 0.0014),
-    ("sphere-dye", "default", 0.8787, 0.0016),
-    ("paper-dye", "default", 0.9141, 0.0037),
-    ("bag", "default", 0.6256, 0.0019),
+    ("colorchecker", "default", 0.8607, 0.0016),
+    ("sphere-dye", "default", 0.8756, 0.0014),
+    ("paper-dye", "default", 0.9157, 0.0040),
+    ("bag", "default", 0.5905, 0.0012),
     // 4:2:0 and JPEG: 1.23 % outliers before the boundaries were refined with the
     // frame's luma (and a chain's one thrown position mended).
-    ("paper", "webcam", 0.9557, 0.0046),
-    ("skin", "clipped", 0.9641, 0.0013),
+    ("paper", "webcam", 0.9564, 0.0045),
+    ("skin", "clipped", 0.9616, 0.0014),
     ("wall", "partial", 0.9988, 0.0001),
-    ("occluders", "world", 0.9493, 0.0059),
+    ("occluders", "world", 0.9490, 0.0058),
     // Partial light beside a cast shadow: with the extension's light read from the new
     // stripe's second pixel but its shadow test still from the first (half lit by the
     // blur), the stripes were extended into the cylinder's shadow (0.61 % outliers).
-    ("textured", "world", 0.9537, 0.0029),
+    ("textured", "world", 0.9465, 0.0033),
     // 25-pixel stripes: a cast shadow between two stripes' edges was bridged as one
     // stripe (15.8 % outliers before the decoder compared a stripe's light with its
     // neighbours', 4.2 % before it compared the stripe's width with theirs).
-    ("occluders", "wide", 0.9550, 0.0068),
+    ("occluders", "wide", 0.9460, 0.0073),
     // 3-pixel stripes: 58.3 % coverage and 1.77 % outliers before a boundary's
     // strength stopped having to top the strength two pixels out at that width.
-    ("wood", "narrow", 0.9593, 0.0009),
+    ("wood", "narrow", 0.9592, 0.0009),
     // Grain along one family's stripes: 92.0 % before the regions where the families
     // disagree were settled by the family their border agrees with.
-    ("wood", "default", 0.9589, 0.0013),
+    ("wood", "default", 0.9580, 0.0016),
     // Dyes through 4:2:0 and JPEG: 72.0 % and 1.53 % outliers before chains.
-    ("paper-dye", "webcam", 0.8529, 0.0059),
+    ("paper-dye", "webcam", 0.8546, 0.0060),
 ];
 
 both_targets! {

@@ -170,10 +170,14 @@ mod native {
     /// Since the alignment weighs the spacing of the edges and follows jumps, direct
     /// estimation gained more than loggrad on the blotchy texture too (correct pixels:
     /// direct 203 188 to 227 140, loggrad 237 496 to 247 787, a ratio of 1.17 to 1.09),
-    /// so the margin there is now 5 %.
+    /// so the margin there became 5 %. Since a boundary's steps stopped counting the
+    /// surface's own change of colour (`surface_change` in `segment.rs`), which is
+    /// what the log-gradient filter is for and which now helps direct estimation too,
+    /// the ratio is 1.036 (direct 227 140 to 244 142, loggrad 247 787 to 252 972), and
+    /// the margin is 2 %: still clearly more, less than before.
     #[test]
     fn loggrad_decodes_more_than_direct_on_coloured_scenes() {
-        for (scene, margin) in [("paper", 1.0), ("sphere", 1.0), ("textured", 1.05)] {
+        for (scene, margin) in [("paper", 1.0), ("sphere", 1.0), ("textured", 1.02)] {
             let direct = row(scene, 2, FilterMode::Direct).merged.correct as f64;
             let loggrad = row(scene, 2, FilterMode::LogGrad).merged.correct as f64;
             eprintln!("{scene}: loggrad / direct = {:.3}", loggrad / direct);
