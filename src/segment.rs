@@ -510,12 +510,12 @@ struct Side {
     clipped: bool,
     /// Some pixel was dark in this channel.
     dark: bool,
-    /// Least-squares slope of the restored log signal along the plateau, per pixel (0
-    /// on a plateau of under 3 pixels, or one that departs from its line by more than
-    /// [`SLOPE_FIT`]).
-    slope: f32,
-    /// Sum of the pixels' squared offsets from the centre, 0 where `slope` is: the
-    /// slope's noise is the pixels' over its root.
+    /// Least-squares slope of the restored log signal along the plateau, per pixel;
+    /// none on a plateau of under 3 pixels, or one that departs from its line by more
+    /// than [`SLOPE_FIT`].
+    slope: Option<f32>,
+    /// Sum of the pixels' squared offsets from the centre: the slope's noise is the
+    /// pixels' over its root.
     spread: f32,
     /// Position of the plateau's centre along the line.
     centre: f32,
@@ -545,11 +545,17 @@ fn plateau(sc: &LineScratch, a: f32, b: f32) -> Option<[Side; 3]> {
     }
     let n = flags.len() as u32;
     // The six sums in one walk, each in the order `Iterator::sum` takes (from -0.0,
-    // which any first term replaces exactly).
+    // which any first term replaces exactly), and in the same walk the moments and
+    // squares of the restored signal about the plateau's centre, for its slope and its
+    // departure from that line.
     let [s0, s1, s2] = &sc.signal;
     let [l0, l1, l2] = &sc.level;
     let (s0, s1, s2, l0, l1, l2) = (&s0[lo..=hi], &s1[lo..=hi], &s2[lo..=hi], &l0[lo..=hi], &l1[lo..=hi], &l2[lo..=hi]);
+    let centre = 0.5 * (lo + hi) as f32;
     let mut sums = [-0.0f32; 6];
+    let mut moments = [0f32; 3];
+    let mut squares = [0f32; 3];
+    let mut spread = 0f32;
     for k in 0..s0.len() {
         sums[0] += s0[k];
         sums[1] += s1[k];
@@ -557,29 +563,20 @@ fn plateau(sc: &LineScratch, a: f32, b: f32) -> Option<[Side; 3]> {
         sums[3] += l0[k];
         sums[4] += l1[k];
         sums[5] += l2[k];
+        let x = lo as f32 + k as f32 - centre;
+        moments[0] += x * s0[k];
+        moments[1] += x * s1[k];
+        moments[2] += x * s2[k];
+        squares[0] += s0[k] * s0[k];
+        squares[1] += s1[k] * s1[k];
+        squares[2] += s2[k] * s2[k];
+        spread += x * x;
     }
     let mut sides = [Side::default(); 3];
-    let centre = 0.5 * (lo + hi) as f32;
-    // The slope and the departure from the line, from the moments and the squares.
-    let mut moments = [0f32; 3];
-    let mut squares = [0f32; 3];
-    let mut spread = 0f32;
-    if n >= 3 {
-        for k in 0..s0.len() {
-            let x = lo as f32 + k as f32 - centre;
-            moments[0] += x * s0[k];
-            moments[1] += x * s1[k];
-            moments[2] += x * s2[k];
-            squares[0] += s0[k] * s0[k];
-            squares[1] += s1[k] * s1[k];
-            squares[2] += s2[k] * s2[k];
-            spread += x * x;
-        }
-    }
     for (ch, side) in sides.iter_mut().enumerate() {
         let (log, level) = (sums[ch] / n as f32, sums[3 + ch] / n as f32);
         let mut slope = None;
-        if spread > 0.0 {
+        if n >= 3 {
             let g = moments[ch] / spread;
             let residual = squares[ch] - n as f32 * log * log - g * g * spread;
             let limit = max_f32(SLOPE_FIT, SLOPE_FIT_SIGMAS * NOISE_LINEAR / max_f32(level, DARK_LEVEL));
@@ -593,8 +590,8 @@ fn plateau(sc: &LineScratch, a: f32, b: f32) -> Option<[Side; 3]> {
             n,
             clipped: any & (1 << ch) != 0,
             dark: any & (1 << (3 + ch)) != 0,
-            slope: slope.unwrap_or(0.0),
-            spread: if slope.is_some() { spread } else { 0.0 },
+            slope,
+            spread,
             centre,
         };
     }
@@ -614,12 +611,15 @@ fn plateau(sc: &LineScratch, a: f32, b: f32) -> Option<[Side; 3]> {
 /// [`log_noise`]); most boundaries then keep their plain step, and the noise of a slope
 /// from a few pixels stays out of them.
 fn surface_change(l: &Side, r: &Side, nl: f32, nr: f32) -> Option<(f32, f32)> {
-    if l.spread <= 0.0 || r.spread <= 0.0 || l.clipped || r.clipped || l.slope * r.slope <= 0.0 {
+    let (Some(gl), Some(gr)) = (l.slope, r.slope) else {
+        return None;
+    };
+    if l.clipped || r.clipped || gl * gr <= 0.0 {
         return None;
     }
     let distance = r.centre - l.centre;
-    let (side, noise) = if l.slope.abs() < r.slope.abs() { (l, nl) } else { (r, nr) };
-    let shift = distance * side.slope;
+    let (side, slope, noise) = if gl.abs() < gr.abs() { (l, gl, nl) } else { (r, gr, nr) };
+    let shift = distance * slope;
     // A side's per-pixel noise is its mean's noise times the root of its pixel count;
     // a slope's variance is that squared over the sum of squared offsets.
     let var = distance * distance * noise * noise * side.n as f32 / side.spread;
