@@ -196,6 +196,51 @@ fn partial_projector_lights_half_to_two_thirds_of_the_frame() {
 }
 
 both_targets! {
+/// The `soft` condition's projector blurs what it shows: photographed on the white
+/// plane by the VGA camera, a step from white to black rises over at least twice as
+/// many camera pixels as with the sharp projector (3 projector pixels of blur, about
+/// 2 camera pixels, against the camera's own 0.6), about the same place (the blur is
+/// symmetric), and a blur below 0 is refused.
+fn soft_projector_blurs_its_image() {
+    let calib = Calibration::demo();
+    let (pw, ph) = (calib.projector.width as usize, calib.projector.height as usize);
+    let mut step = Image::new(pw, ph, [0u8; 3]);
+    for v in 0..ph {
+        for u in 0..pw / 2 {
+            *step.get_mut(u, v) = [255; 3];
+        }
+    }
+    let scene = Scene::builtin("plane").unwrap();
+    let soft = SimConfig { projector_blur: hard::SOFT_PROJECTOR_BLUR as f32, noise_sigma: 0.0, ..one_ray() };
+    // Along the middle row: the sub-pixel places where the linear light has fallen by 10,
+    // 50 and 90 % of the way from the bright side to the dark side.
+    let crossings = |cfg: &SimConfig| {
+        let frame = sim::render(&scene, &calib, &step, cfg).unwrap();
+        let v = frame.image.height() / 2;
+        // Linear light (the camera encodes with gamma 2.2).
+        let lut = stripelight::raster::gamma_lut(cfg.camera_gamma);
+        let row: Vec<f64> = frame.image.row(v).iter().map(|p| p.iter().map(|&c| lut[c as usize] as f64).sum::<f64>()).collect();
+        // The levels either side, 15 pixels from the steepest fall (the surface's
+        // shading changes them across the frame).
+        let mid = (1..row.len()).max_by(|&a, &b| (row[a - 1] - row[a]).total_cmp(&(row[b - 1] - row[b]))).unwrap();
+        let (hi, lo) = (row[mid - 15], row[mid + 15]);
+        [0.1, 0.5, 0.9].map(|f| {
+            let level = hi - f * (hi - lo);
+            let u = row.windows(2).position(|w| w[0] >= level && w[1] < level).unwrap();
+            u as f64 + (row[u] - level) / (row[u] - row[u + 1])
+        })
+    };
+    let sharp = crossings(&SimConfig { noise_sigma: 0.0, ..one_ray() });
+    let blurred = crossings(&soft);
+    let (rise_sharp, rise_soft) = (sharp[2] - sharp[0], blurred[2] - blurred[0]);
+    assert!(rise_soft > 2.0 * rise_sharp, "rise {rise_soft:.2} px soft, {rise_sharp:.2} px sharp");
+    assert!((blurred[1] - sharp[1]).abs() < 0.2, "middle at {:.2} soft, {:.2} sharp", blurred[1], sharp[1]);
+    let bad = SimConfig { projector_blur: -1.0, ..one_ray() };
+    assert!(matches!(sim::render(&scene, &calib, &step, &bad), Err(Error::Scene(m)) if m.contains("projector_blur")));
+}
+}
+
+both_targets! {
 /// The `clipped` condition's exposure clips 10-30 % of the bright-stripe pixels in at
 /// least one channel (issue 10's range; it aims at 20 %), on a plain, a pigmented
 /// and a dyed scene; the default exposure clips far fewer on the dyed one.

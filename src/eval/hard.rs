@@ -4,8 +4,8 @@
 //! ([`super::graycode`]) photographed through the same simulated view and camera.
 //!
 //! A [`Condition`] changes the rig (a camera of another resolution, a projector that
-//! lights only part of the frame), the pattern's stripe width and the camera (clipping
-//! exposure, 4:2:0 chroma and JPEG); [`CONDITIONS`] lists them with their parameters
+//! lights only part of the frame), the pattern's stripe width, the projector's focus and
+//! the camera (clipping exposure, 4:2:0 chroma and JPEG); [`CONDITIONS`] lists them with their parameters
 //! and where each value comes from. [`report`] writes `docs/accuracy.md`.
 
 use super::graycode::{gray_reference, GrayReference};
@@ -58,6 +58,14 @@ pub const EIGHT_MP_SCALE: f64 = 5.1;
 /// 750 mm in the 8-megapixel camera (the default 10 would make 33).
 pub const EIGHT_MP_STRIPE_WIDTH: f64 = 7.5;
 
+/// Blur of the `soft` condition's projector, projector pixels (standard deviation):
+/// 0.3 of the default 10-pixel stripe, so a stripe's edges rise over 2.56 σ = 7.7
+/// pixels (10-90 %) and its middle reaches only 90 % of the step. That is the profile
+/// of a projector out of focus or with a soft lens, and close to the lobes without a
+/// flat top of a real capture (Zion1123's sphere, docs/third-party.md: lobes of
+/// σ ≈ 3 projector pixels 14 apart).
+pub const SOFT_PROJECTOR_BLUR: f64 = 3.0;
+
 /// The scene on which the colour mixing is measured: the white plane stands in for
 /// the white card a user photographs.
 pub const CARD_SCENE: &str = "plane";
@@ -78,6 +86,8 @@ pub struct Condition {
     pub stripe_width: f64,
     /// The projector lights only part of the frame ([`PARTIAL_ZOOM`], [`PARTIAL_TARGET_MM`]).
     pub partial_projector: bool,
+    /// The projector's own blur, projector pixels ([`SimConfig::projector_blur`]).
+    pub projector_blur: f64,
     /// Exposure raised until this share of the bright-stripe pixels clips.
     pub clip_fraction: Option<f32>,
     /// 4:2:0 chroma and JPEG at this quality, as a webcam delivers frames.
@@ -95,6 +105,7 @@ impl Condition {
         camera_scale: 1.0,
         stripe_width: DEFAULT_STRIPE_WIDTH,
         partial_projector: false,
+        projector_blur: 0.0,
         clip_fraction: None,
         webcam_jpeg: None,
         report_scenes: None,
@@ -137,6 +148,13 @@ pub const CONDITIONS: &[Condition] = &[
         name: "wide",
         summary: "38-pixel stripes: about 25 camera pixels",
         stripe_width: WIDE_STRIPE_WIDTH,
+        ..Condition::BASE
+    },
+    Condition {
+        name: "soft",
+        summary: "a projector out of focus: its image blurred by a Gaussian of 3 projector pixels, \
+                  so the stripes slope and have no flat top",
+        projector_blur: SOFT_PROJECTOR_BLUR,
         ..Condition::BASE
     },
     Condition {
@@ -193,6 +211,7 @@ impl Condition {
             seed,
             projector_gamma,
             supersample: if self.camera_scale > 1.0 { 1 } else { base.supersample },
+            projector_blur: self.projector_blur as f32,
             chroma_420: self.webcam_jpeg.is_some(),
             jpeg_quality: self.webcam_jpeg,
             ..base
@@ -427,7 +446,8 @@ impl HardEval {
         let truth = view.truth().clone();
 
         // The reference depends on the rig, the camera and (through the clipping
-        // exposure) the one-shot pattern, not on the stripes otherwise.
+        // exposure) the one-shot pattern, not on the stripes otherwise, nor on the
+        // projector's blur (below).
         let key = format!(
             "{scene_name}/{}/{}/{:?}/{}",
             cond.camera_scale,
@@ -438,7 +458,10 @@ impl HardEval {
         if !self.gray.contains_key(&key) {
             // Keep only the current scene's references.
             self.gray.retain(|k, _| k.starts_with(&format!("{scene_name}/")));
-            let reference = gray_reference(&view, &calib, &cfg)?;
+            // With a sharp projector: the reference stands for what of the scene is
+            // decodable at all, and a soft projector would blur its finest codes (a
+            // limit of the reference's patterns, not of the scene).
+            let reference = gray_reference(&view, &calib, &SimConfig { projector_blur: 0.0, ..cfg.clone() })?;
             self.gray.insert(key.clone(), reference);
         }
         let gray_depth = self.gray[&key].depth.clone();
@@ -640,7 +663,10 @@ as lit (for coverage) when its centre is, so the partly lit pixels on the edges 
 light and of shadows, when decoded, add to the decoded pixels and not to the lit ones;
 and the lens blur (σ 0.6 px) carries the stripes about a pixel into shadows, where no
 projector light falls: the reference reads them there and they count as its outliers
-(most of its outliers on `occluders` and `wood`, whose shadows are long).
+(most of its outliers on `occluders` and `wood`, whose shadows are long). Under the
+`soft` condition the reference is photographed with a sharp projector: it stands for
+what of the scene is decodable, and a blurred projector would wash out its own finest
+bits, a limit of those patterns and not of the scene.
 ";
 
 /// The whole of `docs/accuracy.md`: the conditions, the hard table, the ColorChecker's

@@ -134,6 +134,10 @@ pub struct SimConfig {
     /// Defocus blur, camera pixels (standard deviation of a Gaussian). Default 0.6:
     /// a lens focused at the working distance, slightly soft over 600-950 mm.
     pub blur_sigma: f32,
+    /// The projector's own blur, projector pixels (standard deviation of a Gaussian
+    /// applied to the emitted image): a projector out of focus or with a soft lens,
+    /// whose stripes have sloping sides and no flat top. Default 0: a sharp projector.
+    pub projector_blur: f32,
     /// Sensor noise, standard deviation in linear units of full scale. Default 0.005:
     /// about 1.3 code values at mid grey after the gamma, typical of a CCD at low gain.
     pub noise_sigma: f32,
@@ -168,6 +172,7 @@ impl Default for SimConfig {
             projector_gamma: 2.2,
             crosstalk: [[d, o, o], [o, d, o], [o, o, d]],
             blur_sigma: 0.6,
+            projector_blur: 0.0,
             noise_sigma: 0.005,
             exposure: WHITE_PAPER_LEVEL / (WHITE_PAPER_ALBEDO * (1.0 + DEFAULT_AMBIENT)),
             camera_gamma: 2.2,
@@ -210,6 +215,7 @@ impl SimConfig {
         check("projector_gamma", self.projector_gamma, 0.1..=10.0)?;
         check("camera_gamma", self.camera_gamma, 0.1..=10.0)?;
         check("blur_sigma", self.blur_sigma, 0.0..=50.0)?;
+        check("projector_blur", self.projector_blur, 0.0..=50.0)?;
         check("noise_sigma", self.noise_sigma, 0.0..=1.0)?;
         check("exposure", self.exposure, 1e-6..=1e6)?;
         check("reference_distance", self.reference_distance, 0.0..=1e6)?;
@@ -694,7 +700,8 @@ impl<'a> ProjectorGeometry<'a> {
 }
 
 /// The projector image as emitted light: every pixel's linear emission looked up
-/// once per frame, so that each ray's bilinear sample reads four floats per channel.
+/// once per frame (and blurred by [`SimConfig::projector_blur`]), so that each ray's
+/// bilinear sample reads four floats per channel.
 struct Emission {
     width: usize,
     height: usize,
@@ -709,8 +716,9 @@ impl Emission {
             *l = cfg.projector_black + (1.0 - cfg.projector_black) * (i as f32 / 255.0).powf(cfg.projector_gamma);
         }
         let (width, height) = image.size();
-        let light = image.pixels().iter().map(|p| p.map(|v| lut[v as usize])).collect();
-        Emission { width, height, light }
+        let mut light = image.map(|p| p.map(|v| lut[v as usize]));
+        sensor::gaussian_blur(&mut light, cfg.projector_blur, &mut Vec::new());
+        Emission { width, height, light: light.into_vec() }
     }
 
     /// Emitted linear light at projector pixel `px` (bilinear, clamped at the border).
