@@ -28,14 +28,15 @@
 #    calibration.m is Bouguet-style text (camera left, projector right, X_p = R X_c + T,
 #    T in mm), imported as it is.
 #
-# Figures on 2026-12-04 (coverage = object pixels with a point; fit = least squares;
-# docs/third-party.md has the earlier ones):
+# Figures on 2026-12-04, after subpixel_peak (coverage = object pixels with a point;
+# fit = least squares; docs/third-party.md has the earlier ones):
 #   zion default (gamma 2.2)           0 points: the black gaps are below the dark level
-#   zion linear (gamma 1)              26.2 %, radius 95.4 mm, RMS 0.68 mm, 0.8 % > 2 mm
+#   zion linear (gamma 1)              25.7 %, radius 95.4 mm, RMS 0.68 mm, 0.75 % > 2 mm
+#   zion linear, direct                27.6 %, radius 97.0 mm, RMS 0.83 mm, 2.7 % > 2 mm
 #   zion linear, measured mixing        0 points
-#   zion linear, green-into-blue only  25.8 %, radius 95.5 mm, RMS 0.71 mm, 1.2 % > 2 mm
-#   tingck wall                         8.2 %, plane RMS 16.2 mm
-#   tingck hand                         0.81 %
+#   zion linear, green-into-blue only  25.7 %, radius 95.4 mm, RMS 0.71 mm, 1.0 % > 2 mm
+#   tingck wall                         9.4 %, plane RMS 15.0 mm
+#   tingck hand                         0.98 %
 #
 # Needs: cargo, python3 (standard library only), git when MIRRORS holds git directories.
 set -euo pipefail
