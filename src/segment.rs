@@ -94,6 +94,13 @@ pub const MIN_SEEN_STEP: f32 = 0.5 * MIN_STEP;
 /// tenths.
 pub const STRENGTH_NOISE_LEVEL: f32 = 6.0 * NOISE_LINEAR;
 
+/// How much a channel whose brighter side is at linear level `m` counts in an edge's
+/// strength and place: `m² / (m² + STRENGTH_NOISE_LEVEL²)` ([`STRENGTH_NOISE_LEVEL`]).
+#[inline(always)]
+fn lit_weight(m: f32) -> f32 {
+    m * m / (m * m + STRENGTH_NOISE_LEVEL * STRENGTH_NOISE_LEVEL)
+}
+
 /// Smallest expected stripe period, camera pixels, at which an edge's strength must
 /// also top the strength two pixels either side. A boundary's central-difference
 /// strength is high on the two pixels beside it, so in stripes of 3-4 pixels the next
@@ -395,7 +402,7 @@ fn segment_line(input: &LineInput, line: usize, edges: &mut Vec<Edge>, sc: &mut 
             let share = &mut sc.share[ch][..inner];
             for i in 0..inner {
                 let m = max_f32(l0[i], l2[i]);
-                let weight = m * m / (m * m + STRENGTH_NOISE_LEVEL * STRENGTH_NOISE_LEVEL);
+                let weight = lit_weight(m);
                 let d = 0.5 * (s2[i] - s0[i]);
                 share[i] = weight * (d * d);
             }
@@ -421,13 +428,12 @@ fn segment_line(input: &LineInput, line: usize, edges: &mut Vec<Edge>, sc: &mut 
     // sub-pixel refinement. Where stripes are wide enough, a maximum must
     // also top the strength two pixels out (a ripple on a stronger edge's flank is
     // no edge); narrower stripes put the next boundary's own peak there.
-    let shoulder_test = period >= SHOULDER_MIN_PERIOD;
+    let wide_stripes = period >= SHOULDER_MIN_PERIOD;
     // The edges are placed as the last line's were (broad or not), and placed again
     // the other way where this line's own edges say otherwise; never broad with
     // narrow stripes, whose neighbouring boundaries the smoothed derivative reaches.
     sc.peaks.clear();
-    let may_be_broad = period >= SHOULDER_MIN_PERIOD;
-    let smooth = may_be_broad && sc.broad;
+    let smooth = wide_stripes && sc.broad;
     let mut s = 1;
     while s + 1 < len {
         // Usable samples too weak for an edge, passed in a tight loop (most are).
@@ -453,7 +459,7 @@ fn segment_line(input: &LineInput, line: usize, edges: &mut Vec<Edge>, sc: &mut 
             let t = s as isize + k;
             t < 0 || t >= len as isize || sc.strength[t as usize] <= b
         };
-        if b >= MIN_EDGE_STRENGTH && b >= a && b > c && (!shoulder_test || (wider(-2) && wider(2))) {
+        if b >= MIN_EDGE_STRENGTH && b >= a && b > c && (!wide_stripes || (wider(-2) && wider(2))) {
             // Sub-pixel position from the linear-light gradient: blur acts on
             // linear light, so a blurred step's linear gradient peaks at the step
             // while its log gradient leans to the darker side (by 0.4 of the blur's
@@ -467,7 +473,7 @@ fn segment_line(input: &LineInput, line: usize, edges: &mut Vec<Edge>, sc: &mut 
         }
         s += 1;
     }
-    sc.broad = may_be_broad && broad_line(&sc.peaks, &mut sc.widths);
+    sc.broad = wide_stripes && broad_line(&sc.peaks, &mut sc.widths);
     if sc.broad != smooth {
         for (e, &(s, _)) in edges.iter_mut().zip(&sc.peaks) {
             let (p, offset, _) = subpixel_peak(&sc.signal, &sc.level, s, len, sc.broad);
@@ -538,9 +544,7 @@ fn subpixel_peak(signal: &[Vec<f32>; 3], level: &[Vec<f32>; 3], s: usize, len: u
     // a restored signal that is mostly noise, and a soft edge's peak is low enough
     // for that noise to move it. (Lanes: the three channels and a fourth of 0.)
     let (before, after) = (s.saturating_sub(2), (s + 2).min(len - 1));
-    let m = f32x4::new([0, 1, 2, 3].map(|ch| if ch < 3 { max_f32(level[ch][before], level[ch][after]) } else { 0.0 }));
-    let m2 = m * m;
-    let weight = m2 / (m2 + f32x4::splat(STRENGTH_NOISE_LEVEL * STRENGTH_NOISE_LEVEL));
+    let weight = f32x4::new([0, 1, 2, 3].map(|ch| if ch < 3 { lit_weight(max_f32(level[ch][before], level[ch][after])) } else { 0.0 }));
     // Samples s - 4 ..= s + 4 (the climb, the neighbour of the peak and the
     // derivative's reach), each one's exponential (the three channels in one
     // four-lane call) taken once: `ex[k]` is sample `first + k`, taken for
