@@ -45,15 +45,17 @@ use stripelight::eval::hard::{condition, HardEval};
 /// a Gaussian through its gradient's peak, with the channels weighted by their light
 /// and a smoothed derivative on broad lines (`subpixel_peak` in `segment.rs`), raised
 /// paper-dye from 91.6 to 93.4 % with 0.40 -> 0.15 % outliers, paper-dye/webcam from
-/// 85.5 to 87.7 %, and made the soft projector's rows decodable.
+/// 85.5 to 87.7 %, and made the soft projector's rows decodable. Decoding a stripe
+/// across the edges inside it that no identity was given, where the stripes beside it
+/// are as wide, took occluders/wide from 94.6 to 94.9 % with 0.68 -> 0.60 % outliers.
 const MEASURED: &[(&str, &str, f64, f64)] = &[
-    ("colorchecker", "default", 0.8626, 0.0011),
-    ("sphere-dye", "default", 0.8819, 0.0013),
-    ("paper-dye", "default", 0.9343, 0.0015),
-    ("bag", "default", 0.5966, 0.0010),
+    ("colorchecker", "default", 0.8629, 0.0011),
+    ("sphere-dye", "default", 0.8820, 0.0013),
+    ("paper-dye", "default", 0.9344, 0.0015),
+    ("bag", "default", 0.5967, 0.0010),
     // 4:2:0 and JPEG: 1.23 % outliers before the boundaries were refined with the
     // frame's luma (and a chain's one thrown position mended).
-    ("paper", "webcam", 0.9622, 0.0033),
+    ("paper", "webcam", 0.9624, 0.0033),
     ("skin", "clipped", 0.9620, 0.0016),
     ("wall", "partial", 0.9988, 0.0001),
     ("occluders", "world", 0.9503, 0.0063),
@@ -64,20 +66,25 @@ const MEASURED: &[(&str, &str, f64, f64)] = &[
     // 25-pixel stripes: a cast shadow between two stripes' edges was bridged as one
     // stripe (15.8 % outliers before the decoder compared a stripe's light with its
     // neighbours', 4.2 % before it compared the stripe's width with theirs).
-    ("occluders", "wide", 0.9463, 0.0068),
+    ("occluders", "wide", 0.9486, 0.0060),
     // 3-pixel stripes: 58.3 % coverage and 1.77 % outliers before a boundary's
     // strength stopped having to top the strength two pixels out at that width.
     ("wood", "narrow", 0.9609, 0.0008),
     // Grain along one family's stripes: 92.0 % before the regions where the families
     // disagree were settled by the family their border agrees with.
-    ("wood", "default", 0.9591, 0.0016),
+    ("wood", "default", 0.9595, 0.0016),
     // Dyes through 4:2:0 and JPEG: 72.0 % and 1.53 % outliers before chains.
-    ("paper-dye", "webcam", 0.8765, 0.0043),
+    ("paper-dye", "webcam", 0.8767, 0.0043),
     // A projector out of focus (stripes without a flat top): 92.7 % and 2.17 %
     // outliers on the wall, 79.0 % and 2.74 % on skin, before the boundaries of broad
     // lines were placed with a smoothed derivative and a Gaussian.
-    ("wall", "soft", 0.9819, 0.0037),
-    ("skin", "soft", 0.8732, 0.0071),
+    ("wall", "soft", 0.9818, 0.0036),
+    ("skin", "soft", 0.8737, 0.0071),
+    // 25-pixel stripes on a coloured check: more edges of the texture than stripe
+    // boundaries, and each left the stripe it cut short to the extensions from its
+    // ends; 72.0 % before a stripe was decoded across them where the stripes beside it
+    // are as wide (`BRIDGE_WIDTH_TOLERANCE` in `decode.rs`).
+    ("textured", "wide", 0.7683, 0.0079),
 ];
 
 both_targets! {
