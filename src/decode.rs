@@ -843,8 +843,8 @@ struct LineGeometry<'a> {
 }
 
 /// A chunk of lines' workspace for [`Decoder::stripe_coords_into`]: one line's edges
-/// without the chains' labels, its identified edges ([`Named`]), and the pixels the chunk extended and took from chain
-/// labels (frame indices, in line order).
+/// without the chains' labels, its identified edges ([`Named`]), and the pixels the
+/// chunk extended and took from chain labels (frame indices, in line order).
 #[derive(Default)]
 struct CoordChunk {
     masked: Vec<Edge>,

@@ -804,8 +804,9 @@ fn classify(edges: &mut [Edge], sc: &LineScratch, period: f32) {
     // The plateau right of an edge is the next edge's left one when both are bounded
     // by the same two edges: measured once.
     let mut carried: Option<(f32, f32, Option<[Side; 3]>)> = None;
-    // Broad lines (a soft projector, another system's lobes) read the whole plateau
-    // (see PLATEAU_REACH).
+    // Each side is read no further from the edge than PLATEAU_REACH (the surface's
+    // own colour drifts across a wide stripe), except on broad lines (a soft
+    // projector, another system's lobes), which read the whole plateau.
     let reach = if sc.broad { f32::INFINITY } else { PLATEAU_REACH };
     for i in 0..n {
         let here = edges[i];
@@ -813,8 +814,6 @@ fn classify(edges: &mut [Edge], sc: &LineScratch, period: f32) {
         let has_next = i + 1 < n && edges[i + 1].run == here.run && edges[i + 1].pos - here.pos <= HALF_DARK_STRIPE * period;
         let prev = if i > 0 && edges[i - 1].run == here.run { edges[i - 1].pos } else { here.pos - period };
         let next = if i + 1 < n && edges[i + 1].run == here.run { edges[i + 1].pos } else { here.pos + period };
-        // Read no further from the edge than PLATEAU_REACH (the surface's own colour
-        // drifts across a wide stripe).
         let (prev, next) = (max_f32(prev, here.pos - reach), next.min(here.pos + reach));
         let left = match carried {
             Some((a, b, side)) if a == prev && b == here.pos => side,
