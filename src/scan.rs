@@ -197,7 +197,8 @@ pub struct Scanner {
     triangulator: Triangulator,
     weights: Vec<Vec<f32>>,
     merged_families: Vec<u8>,
-    /// The pixels [`merge::remove_disputed_extensions`] and [`merge::remove_rim`] remove.
+    /// The pixels [`merge::remove_disputed_extensions`], [`merge::remove_rim`] and
+    /// [`merge::remove_half_lit`] remove.
     rim: Vec<u32>,
     scratch: Vec<f32>,
     /// Per family: a scratch plane and the milliseconds of its four stages.
@@ -558,6 +559,8 @@ impl Scanner {
         merge::resolve_disputes(&r.family_depth, r.depth.pixels_mut(), &mut self.merged_families, w, h, &mut self.rim);
         merge::remove_disputed_extensions(r.depth.pixels_mut(), &mut self.merged_families, extended, w, h, &mut self.rim);
         merge::remove_rim(r.depth.pixels_mut(), &mut self.merged_families, self.linear.pixels(), w, h, &mut self.rim);
+        let stripes_along_rows = self.predictions.iter().enumerate().fold(0u8, |m, (k, p)| if p.axis == ScanAxis::Columns { m | 1 << k } else { m });
+        merge::remove_half_lit(r.depth.pixels_mut(), &mut self.merged_families, self.linear.pixels(), w, h, stripes_along_rows, &mut self.rim);
         merge::remove_isolated(r.depth.pixels_mut(), w, h, &mut self.scratch);
         clock.lap("merge", &mut laps);
 
