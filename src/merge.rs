@@ -293,10 +293,15 @@ pub fn remove_rim(depth: &mut [f32], families: &mut [u8], linear: &[[f32; 3]], w
 
 /// Share of the light of its neighbour along the stripe under which a pixel on the
 /// border of the decoded region, measured by one family, is taken to be lit over less
-/// than half its area ([`remove_half_lit`]). Along a stripe the projector's colour is
-/// the same, so a pixel with under half its neighbour's light (the room's light adds
-/// to both) gets under half of the projector's: its centre most likely sees something
-/// the projector does not light, while its depth is the lit part's. Where that is an
+/// than half its area ([`remove_half_lit`]). Along a stripe of one family only the other
+/// families' stripes change the projector's light (the pattern is their product), so
+/// between two neighbours that no other family's boundary separates it is the same,
+/// and a pixel with under half its neighbour's light (the room's light adds to both)
+/// gets under half of the projector's: its centre most likely sees something the
+/// projector does not light, while its depth is the lit part's. (Across another
+/// family's boundary a fully lit pixel can have under half its neighbour's light too,
+/// down to a quarter with the default palette's low level; that and a dark patch's
+/// blurred border are the correct pixels the test loses.) Where that is an
 /// occluder's silhouette (the unlit side nearer than the lit surface behind it) the
 /// depth at the pixel's centre is the occluder's, and the decoded one off by the depth
 /// step. Measured on the 96 VGA rows of the hard evaluation (`eval --hard`, every
