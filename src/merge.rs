@@ -228,6 +228,20 @@ pub fn resolve_disputes<D: AsRef<[f32]>>(depths: &[D], depth: &mut [f32], famili
     settled
 }
 
+/// A pixel's light: the sum of its linear channels (below zero, none).
+fn light(p: [f32; 3]) -> f32 {
+    p.iter().map(|&v| v.max(0.0)).sum()
+}
+
+/// Empty the merged pixels `list` (no depth, no family); returns how many there were.
+fn clear_pixels(depth: &mut [f32], families: &mut [u8], list: &[u32]) -> usize {
+    for &i in list {
+        depth[i as usize] = f32::NAN;
+        families[i as usize] = 0;
+    }
+    list.len()
+}
+
 /// Share of the light of the brightest decoded pixel nearby (within [`RIM_REACH`])
 /// under which a pixel on the border of the decoded region, measured by one family, is
 /// taken for the rim of the projector's light: the lens blur carries the stripes about
@@ -256,7 +270,7 @@ pub fn remove_rim(depth: &mut [f32], families: &mut [u8], linear: &[[f32; 3]], w
     if depth.len() != width * height || families.len() != depth.len() || linear.len() != depth.len() {
         return 0;
     }
-    let light = |i: usize| linear[i].iter().map(|&v| v.max(0.0)).sum::<f32>();
+    let light_at = |i: usize| light(linear[i]);
     for y in 0..height {
         for x in 0..width {
             let i = y * width + x;
@@ -275,20 +289,16 @@ pub fn remove_rim(depth: &mut [f32], families: &mut [u8], linear: &[[f32; 3]], w
                 for xx in x.saturating_sub(RIM_REACH)..(x + RIM_REACH + 1).min(width) {
                     let j = yy * width + xx;
                     if !depth[j].is_nan() {
-                        brightest = max_f32(brightest, light(j));
+                        brightest = max_f32(brightest, light_at(j));
                     }
                 }
             }
-            if light(i) < RIM_SHARE * brightest {
+            if light_at(i) < RIM_SHARE * brightest {
                 rim.push(i as u32);
             }
         }
     }
-    for &i in rim.iter() {
-        depth[i as usize] = f32::NAN;
-        families[i as usize] = 0;
-    }
-    rim.len()
+    clear_pixels(depth, families, rim)
 }
 
 /// Share of the light of its neighbour along the stripe under which a pixel on the
@@ -330,7 +340,7 @@ pub fn remove_half_lit(depth: &mut [f32], families: &mut [u8], linear: &[[f32; 3
     if depth.len() != width * height || families.len() != depth.len() || linear.len() != depth.len() {
         return 0;
     }
-    let light = |i: usize| linear[i].iter().map(|&v| v.max(0.0)).sum::<f32>();
+    let light_at = |i: usize| light(linear[i]);
     for y in 1..height.saturating_sub(1) {
         for x in 1..width.saturating_sub(1) {
             let i = y * width + x;
@@ -344,16 +354,12 @@ pub fn remove_half_lit(depth: &mut [f32], families: &mut [u8], linear: &[[f32; 3
                 (false, true) => i - step,
                 _ => continue,
             };
-            if light(i) < HALF_LIT_SHARE * light(inside) {
+            if light_at(i) < HALF_LIT_SHARE * light_at(inside) {
                 removed.push(i as u32);
             }
         }
     }
-    for &i in removed.iter() {
-        depth[i as usize] = f32::NAN;
-        families[i as usize] = 0;
-    }
-    removed.len()
+    clear_pixels(depth, families, removed)
 }
 
 /// How far, pixels (in x and in y), [`remove_disputed_extensions`] looks for a depth
@@ -403,11 +409,7 @@ pub fn remove_disputed_extensions(depth: &mut [f32], families: &mut [u8], extend
         }
     }
     // Each pixel is judged once: only for the one family that measured it.
-    for &i in removed.iter() {
-        depth[i as usize] = f32::NAN;
-        families[i as usize] = 0;
-    }
-    removed.len()
+    clear_pixels(depth, families, removed)
 }
 
 /// Remove depths with fewer than [`MIN_SUPPORT`] of their 8 neighbours on the same

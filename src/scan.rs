@@ -188,6 +188,9 @@ pub struct Scanner {
     filter: LogGradFilter,
     windows: Vec<FamilyWindow>,
     predictions: Vec<FamilyPrediction>,
+    /// Bit k set where family k's stripes run closer to the rows than to the columns
+    /// (its scan lines are columns; see [`merge::remove_half_lit`]).
+    stripes_along_rows: u8,
     /// Per family, the mean period of the other families' stripes along its own
     /// stripes, pixels (see `smooth_along_stripes`).
     other_families_period: Vec<f32>,
@@ -381,6 +384,7 @@ impl Scanner {
             luma_encoder,
             unmix,
             windows,
+            stripes_along_rows: predictions.iter().enumerate().fold(0u8, |m, (k, p)| if p.axis == ScanAxis::Columns { m | 1 << k } else { m }),
             predictions,
             other_families_period,
             decoders,
@@ -559,8 +563,7 @@ impl Scanner {
         merge::resolve_disputes(&r.family_depth, r.depth.pixels_mut(), &mut self.merged_families, w, h, &mut self.rim);
         merge::remove_disputed_extensions(r.depth.pixels_mut(), &mut self.merged_families, extended, w, h, &mut self.rim);
         merge::remove_rim(r.depth.pixels_mut(), &mut self.merged_families, self.linear.pixels(), w, h, &mut self.rim);
-        let stripes_along_rows = self.predictions.iter().enumerate().fold(0u8, |m, (k, p)| if p.axis == ScanAxis::Columns { m | 1 << k } else { m });
-        merge::remove_half_lit(r.depth.pixels_mut(), &mut self.merged_families, self.linear.pixels(), w, h, stripes_along_rows, &mut self.rim);
+        merge::remove_half_lit(r.depth.pixels_mut(), &mut self.merged_families, self.linear.pixels(), w, h, self.stripes_along_rows, &mut self.rim);
         merge::remove_isolated(r.depth.pixels_mut(), w, h, &mut self.scratch);
         clock.lap("merge", &mut laps);
 
