@@ -23,7 +23,8 @@
 //! pattern's code for that boundary (is compatible with it). Last, boundaries that no
 //! line could identify with enough margin are labelled by their chains: the lines'
 //! best readings of one boundary, summed along it ([`Decoder::label_chains`]); the
-//! merge keeps what those labels give only where another family confirms it.
+//! merge keeps what those labels give only where another family's depths at or around
+//! the pixel agree with it.
 
 use crate::num::max_f32;
 use crate::align::{blind_channels, changed_channels, Aligner, RunInput, MAX_STEP};
@@ -404,8 +405,8 @@ impl Decoder {
     /// the edge more likely spurious. The chain takes the leading identity where it
     /// leads the next by [`CHAIN_ACCEPT_BITS`], and gives it to its unlabelled edges
     /// that fit its transition. [`Decoder::weak`] lists the pixels whose coordinate
-    /// comes from such a label: the merge keeps them only where another family
-    /// confirms them ([`crate::merge::remove_unconfirmed`]).
+    /// comes from such a label: the merge keeps them only where another family's
+    /// depths at or around them agree ([`crate::merge::remove_unconfirmed`]).
     ///
     /// Why: on a saturated dye only one or two channels can be read, and the codes
     /// they show repeat every few boundaries, so a line's best labelling is often right
