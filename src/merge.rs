@@ -638,22 +638,32 @@ mod tests {
         }
     }
 
+    /// A `w` x `h` frame whose first `cols` columns family 1 measured at 700 mm under
+    /// `light` (linear), the rest undecoded under `dark`: depths, families, light.
+    fn lit_block(w: usize, h: usize, cols: usize, light: [f32; 3], dark: [f32; 3]) -> (Vec<f32>, Vec<u8>, Vec<[f32; 3]>) {
+        let mut depth = vec![f32::NAN; w * h];
+        let mut families = vec![0u8; w * h];
+        let mut linear = vec![dark; w * h];
+        for y in 0..h {
+            for x in 0..cols {
+                let i = y * w + x;
+                depth[i] = 700.0;
+                families[i] = 1;
+                linear[i] = light;
+            }
+        }
+        (depth, families, linear)
+    }
+
     /// A lit block with a dim rim on its right (a fifth of the light, one family)
     /// loses the rim; a dim pixel inside the block, a dim border pixel that both
     /// families measured, and the block's bright border stay.
     #[test]
     fn the_rim_of_the_light_is_removed() {
         let (w, h) = (8, 6);
-        let mut depth = vec![f32::NAN; w * h];
-        let mut families = vec![0u8; w * h];
-        let mut linear = vec![[0.02f32; 3]; w * h];
+        let (mut depth, mut families, mut linear) = lit_block(w, h, 6, [0.2, 0.3, 0.25], [0.02; 3]);
         for y in 0..h {
-            for x in 0..6 {
-                let i = y * w + x;
-                depth[i] = 700.0;
-                families[i] = 1;
-                linear[i] = if x == 5 { [0.04, 0.05, 0.03] } else { [0.2, 0.3, 0.25] };
-            }
+            linear[y * w + 5] = [0.04, 0.05, 0.03];
         }
         // A dim pixel inside (a dark stripe of the pattern), and a dim rim pixel that
         // both families measured.
@@ -681,17 +691,7 @@ mod tests {
     #[test]
     fn pixels_lit_over_less_than_half_their_area_are_removed() {
         let (w, h) = (9, 7);
-        let mut depth = vec![f32::NAN; w * h];
-        let mut families = vec![0u8; w * h];
-        let mut linear = vec![[0.01f32; 3]; w * h];
-        for y in 0..h {
-            for x in 0..7 {
-                let i = y * w + x;
-                depth[i] = 700.0;
-                families[i] = 1;
-                linear[i] = [0.2, 0.3, 0.1];
-            }
-        }
+        let (mut depth, mut families, mut linear) = lit_block(w, h, 7, [0.2, 0.3, 0.1], [0.01; 3]);
         for (y, share) in [(1, 0.45), (2, 0.3), (3, 0.55), (4, 0.3), (5, 0.3)] {
             linear[y * w + 6] = [0.2 * share, 0.3 * share, 0.1 * share];
         }
