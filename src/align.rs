@@ -143,10 +143,10 @@ const fn digit_masks() -> [[u32; 3]; 3] {
     let mut out = [[0u32; 3]; 3];
     let mut code = 0;
     while code < 27 {
-        let digits = [code / 9, code / 3 % 3, code % 3];
+        let t = crate::segment::unpack(code);
         let mut c = 0;
         while c < 3 {
-            out[c][digits[c]] |= 1 << code;
+            out[c][(t[c] + 1) as usize] |= 1 << code;
             c += 1;
         }
         code += 1;

@@ -29,7 +29,7 @@
 use crate::num::max_f32;
 use crate::align::{blind_channels, changed_channels, Aligner, RunInput, MAX_STEP};
 use crate::pattern::PatternSpec;
-use crate::segment::{for_line_chunks, pack, reverse, Code, CodeMask, Edge, ScanAxis, Segmentation, Tentative, DARK_LEVEL, LINE_CHUNKS, NO_CODE};
+use crate::segment::{for_line_chunks, pack, reverse, unpack, Code, CodeMask, Edge, ScanAxis, Segmentation, Tentative, DARK_LEVEL, LINE_CHUNKS, NO_CODE};
 
 /// Largest distance between a boundary and its continuation on the next scan line,
 /// pixels. Scan lines are at most 45 degrees from across the stripes, so a boundary
@@ -806,7 +806,7 @@ impl Decoder {
                 continue;
             }
             let index = |s: usize| axis_index(axis, line, s, width);
-            let lit = if dark_band { self.band_shows_stripes(linear, index, line_len, &a, &b, stripes) } else { lit_between(linear, index, a.pos, b.pos) };
+            let lit = if dark_band { self.band_shows_stripes(linear, index, &a, &b, stripes) } else { lit_between(linear, index, a.pos, b.pos) };
             if !lit || (stripes == 1 && self.shadowed(linear, index, line_len, max_width / 3.0, &a, &b)) {
                 continue;
             }
@@ -1052,16 +1052,11 @@ impl Decoder {
     /// as its transition does, by at least [`BAND_MIN_STEP`] per changing channel (the
     /// sum over channels of the log change, signed by the transition). Boundaries
     /// without dark pixels on both sides say nothing; a stretch beyond
-    /// [`BRIDGE_LIT_STRIPES`] or [`BRIDGE_LIT_SPAN`] needs a dark pixel. `line_len` is
-    /// the line's length, `index` maps a position on it to a pixel.
-    fn band_shows_stripes(&self, linear: &[[f32; 3]], index: impl Fn(usize) -> usize, line_len: usize, a: &Edge, b: &Edge, stripes: i32) -> bool {
+    /// [`BRIDGE_LIT_STRIPES`] or [`BRIDGE_LIT_SPAN`] needs a dark pixel. `index` maps a
+    /// position on the line to a pixel.
+    fn band_shows_stripes(&self, linear: &[[f32; 3]], index: impl Fn(usize) -> usize, a: &Edge, b: &Edge, stripes: i32) -> bool {
         let pixel = |s: usize| linear.get(index(s)).copied().unwrap_or([0.0; 3]);
-        let (lo, hi) = ((a.pos + 1.0).ceil(), (b.pos - 1.0).floor());
-        if hi <= lo || lo < 0.0 {
-            return true;
-        }
-        let (lo, hi) = (lo as usize, (hi as usize).min(line_len.saturating_sub(1)));
-        let floor = SHADOW_SHARE * light(pixel(lo)).max(light(pixel(hi)));
+        let Some((lo, hi, floor)) = shadow_floor(linear, &index, a.pos, b.pos) else { return true };
         // The mean colour of the dark pixels from `from` to `to` (within the stretch).
         let mean_dark = |from: f32, to: f32| {
             let (mut sum, mut n) = ([0f32; 3], 0);
@@ -1088,7 +1083,7 @@ impl Decoder {
             if code == NO_CODE {
                 return true;
             }
-            let t = [code / 9, code / 3 % 3, code % 3].map(|v| v as f32 - 1.0);
+            let t = unpack(code).map(f32::from);
             let changed = t.iter().filter(|&&v| v != 0.0).count() as f32;
             let seen: f32 = (0..3).map(|c| t[c] * ((after[c] + DARK_LEVEL) / (before[c] + DARK_LEVEL)).ln()).sum();
             seen >= BAND_MIN_STEP * changed
@@ -1306,14 +1301,23 @@ pub const SHADOW_SHARE: f32 = 0.25;
 /// brighter end of the span (an end can be in the shadow already), by the sum of its
 /// linear channels; `index` maps a position on the line to a pixel.
 fn lit_between(linear: &[[f32; 3]], index: impl Fn(usize) -> usize, a: f32, b: f32) -> bool {
+    let Some((lo, hi, floor)) = shadow_floor(linear, &index, a, b) else { return true };
+    (lo + 1..hi).all(|s| linear.get(index(s)).copied().map_or(0.0, light) >= floor)
+}
+
+/// The pixels of the span from `a` to `b` a pixel's margin from each end, `lo..=hi`,
+/// and the light under which one of them is taken for a shadow: [`SHADOW_SHARE`] of the
+/// brighter of `lo` and `hi` (an end can be in the shadow already). None where the
+/// span holds fewer than two such pixels. `index` maps a position on the line to a
+/// pixel of `linear`.
+fn shadow_floor(linear: &[[f32; 3]], index: &impl Fn(usize) -> usize, a: f32, b: f32) -> Option<(usize, usize, f32)> {
     let (lo, hi) = ((a + 1.0).ceil(), (b - 1.0).floor());
     if hi <= lo || lo < 0.0 {
-        return true;
+        return None;
     }
     let light_at = |s: usize| linear.get(index(s)).copied().map_or(0.0, light);
     let (lo, hi) = (lo as usize, hi as usize);
-    let floor = SHADOW_SHARE * light_at(lo).max(light_at(hi));
-    (lo + 1..hi).all(|s| light_at(s) >= floor)
+    Some((lo, hi, SHADOW_SHARE * light_at(lo).max(light_at(hi))))
 }
 
 #[inline]
@@ -1508,6 +1512,13 @@ mod tests {
         Edge { pos, code: NO_CODE, mask: ANY_BOUNDARY, run: 0, id, tentative: Tentative::NONE }
     }
 
+    /// A segmentation whose scan lines are the rows `lines`.
+    fn rows(lines: Vec<Vec<Edge>>) -> Segmentation {
+        let mut seg = Segmentation::default();
+        (seg.axis, seg.lines) = (Some(ScanAxis::Rows), lines);
+        seg
+    }
+
     /// A slanted boundary with alternating errors of ±0.25 px is pulled onto its
     /// straight line (where neighbours exist on both sides), a boundary ending at a line
     /// keeps its position there, another identity at the same place takes no part, and
@@ -1609,9 +1620,7 @@ mod tests {
         let spec = PatternSpec::generate(1, 64, 16, 8.0).unwrap();
         let mut decoder = Decoder::new(&spec, 0, true);
         let (w, len) = (50, 50);
-        let mut seg = Segmentation::default();
-        seg.axis = Some(ScanAxis::Rows);
-        seg.lines = vec![vec![edge(10.3, 5), edge(18.3, 6), edge(40.5, -1)]; 3];
+        let seg = rows(vec![vec![edge(10.3, 5), edge(18.3, 6), edge(40.5, -1)]; 3]);
         let mut linear = vec![[0.3f32; 3]; w * 3];
         for p in &mut linear[w + 21..w + len] {
             *p = [0.05; 3];
@@ -1721,12 +1730,10 @@ mod tests {
         let spec = PatternSpec::generate(1, 64, 16, 8.0).unwrap();
         let mut decoder = Decoder::new(&spec, 0, true);
         let w = 60;
-        let mut seg = Segmentation::default();
-        seg.axis = Some(ScanAxis::Rows);
-        seg.lines = vec![
+        let seg = rows(vec![
             vec![edge(10.0, 3), edge(20.0, 4), edge(24.5, -1), edge(30.5, 5), edge(40.5, 6)],
             vec![edge(10.0, 3), edge(20.0, 4), edge(26.5, -1), edge(33.4, 5), edge(46.4, 6)],
-        ];
+        ]);
         let linear = vec![[0.3f32; 3]; w * 2];
         let mut out = vec![0.0; w * 2];
         decoder.stripe_coords_into(&seg, &linear, w, 100.0, &mut out);
@@ -1755,19 +1762,17 @@ mod tests {
         let spec = PatternSpec::generate(1, 96, 16, 8.0).unwrap();
         let mut decoder = Decoder::new(&spec, 0, true);
         let w = 70;
-        let mut seg = Segmentation::default();
-        seg.axis = Some(ScanAxis::Rows);
         let band = [edge(14.5, -1), edge(25.5, -1)];
         let (start, even) = (vec![edge(4.0, 2), edge(12.0, 3)], vec![edge(36.0, 6), edge(44.0, 7)]);
         let four = vec![edge(44.0, 7), edge(52.0, 8)];
-        seg.lines = vec![
+        let seg = rows(vec![
             [start.clone(), band.to_vec(), even.clone()].concat(),
             [start.clone(), band.to_vec(), vec![edge(36.0, 6), edge(42.4, 7)]].concat(),
             [start.clone(), band.to_vec(), vec![edge(52.0, 8), edge(60.0, 9)]].concat(),
             [start.clone(), band.to_vec(), even].concat(),
             [start.clone(), band.to_vec(), four.clone()].concat(),
             [start, band.to_vec(), four].concat(),
-        ];
+        ]);
         // The band: 3 % of each stripe's colour (stripe j from 12 + 8 (j - 3)); one
         // grey on line 3; none on line 5 (lit throughout).
         let mut linear = vec![[0.3f32; 3]; w * 6];
@@ -1841,9 +1846,7 @@ mod tests {
         let spec = PatternSpec::generate(2, 64, 48, 8.0).unwrap();
         let mut decoder = Decoder::new(&spec, 0, true);
         let w = 50;
-        let mut seg = Segmentation::default();
-        seg.axis = Some(ScanAxis::Rows);
-        seg.lines = vec![vec![edge(10.3, 5), edge(18.3, 6), edge(26.3, 7), edge(34.3, 8)]];
+        let seg = rows(vec![vec![edge(10.3, 5), edge(18.3, 6), edge(26.3, 7), edge(34.3, 8)]]);
         decoder.chain_labelled = vec![false, false, true, true];
         let linear = vec![[0.3f32; 3]; w];
         let mut out = vec![0.0; w];

@@ -190,13 +190,17 @@ pub fn pack(t: [i8; 3]) -> Code {
     ((t[0] + 1) * 9 + (t[1] + 1) * 3 + (t[2] + 1)) as Code
 }
 
+/// The transition a code packs (the inverse of [`pack`] on the 27 codes).
+pub const fn unpack(code: Code) -> [i8; 3] {
+    [(code / 9) as i8 - 1, (code / 3 % 3) as i8 - 1, (code % 3) as i8 - 1]
+}
+
 /// The transition of the reverse boundary (the same boundary crossed the other way).
 pub fn reverse(code: Code) -> Code {
     if code == NO_CODE {
         return NO_CODE;
     }
-    let (r, g, b) = (code / 9, code / 3 % 3, code % 3);
-    (2 - r) * 9 + (2 - g) * 3 + (2 - b)
+    pack(unpack(code).map(|v| -v))
 }
 
 /// One stripe boundary on a scan line.
