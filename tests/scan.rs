@@ -174,13 +174,21 @@ mod native {
     /// surface's own change of colour (`surface_change` in `segment.rs`), which is
     /// what the log-gradient filter is for and which now helps direct estimation too,
     /// the ratio is 1.036 (direct 227 140 to 244 142, loggrad 247 787 to 252 972), and
-    /// the margin is 2 %: still clearly more, less than before.
+    /// the margin is 2 %: still clearly more, less than before. Since then the ratio
+    /// has sat at 1.020 and one frame's noise moves it by more than the margin's last
+    /// digit (textured, noise seeds 1 to 5, after a broad line's boundaries were fitted
+    /// through five samples: 1.0199, 1.0202, 1.0204, 1.0190, 1.0207; before: 1.0201,
+    /// 1.0200, 1.0206, 1.0184, 1.0205), so the correct pixels are summed over three
+    /// frames of independent noise (seeds 1 to 3) before they are compared.
     #[test]
     fn loggrad_decodes_more_than_direct_on_coloured_scenes() {
+        let correct = |scene: &str, filter: FilterMode| -> f64 {
+            (1..=3).map(|seed| evaluate(scene, 2, filter, &Calibration::demo(), seed).unwrap().merged.correct as f64).sum()
+        };
         for (scene, margin) in [("paper", 1.0), ("sphere", 1.0), ("textured", 1.02)] {
-            let direct = row(scene, 2, FilterMode::Direct).merged.correct as f64;
-            let loggrad = row(scene, 2, FilterMode::LogGrad).merged.correct as f64;
-            eprintln!("{scene}: loggrad / direct = {:.3}", loggrad / direct);
+            let direct = correct(scene, FilterMode::Direct);
+            let loggrad = correct(scene, FilterMode::LogGrad);
+            eprintln!("{scene}: loggrad / direct = {:.4} (correct pixels over three frames: {loggrad} / {direct})", loggrad / direct);
             assert!(loggrad > margin * direct, "{scene}: loggrad {loggrad}, direct {direct}");
         }
     }
