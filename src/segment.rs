@@ -136,7 +136,7 @@ pub const SLOPE_FIT_SIGMAS: f32 = 3.0;
 /// 0.69 / 0.71 % outliers; bag 59.7 % -> 63.5 / 61.9 / 60.0 / 59.6 %; colorchecker
 /// 86.3 % -> 84.7 / 86.3 % (4 / 6); skin/8mp 90.8 % -> 87.9 / 89.9 / 90.5 % (4 / 6 /
 /// 8): its 25-pixel stripes are blurred over more pixels, which a short plateau
-/// leaves in. Only on lines whose edges are sharp (not [`median_peak_var`]): on the real
+/// leaves in. Only on lines whose edges are sharp ([`PeakShape::Sharp`]): on the real
 /// capture of Zion1123 (`scripts/real-data.sh`), whose stripes are bell-shaped lobes,
 /// six pixels from an edge hold half a lobe, which fits a line where the whole lobe
 /// does not, and its slope was taken for the surface's ([`SLOPE_FIT`]): nothing of
@@ -295,31 +295,34 @@ pub struct LineScratch {
     /// variance ([`subpixel_peak`]); the variances again, for their median.
     peaks: Vec<(usize, f32)>,
     widths: Vec<f32>,
-    /// Whether the last line's edges were broad ([`median_peak_var`]), and whether they
-    /// were soft (broader still, [`SOFT_PEAK_VAR`]): the next line's are placed the
-    /// same way first.
-    broad: bool,
-    soft: bool,
+    /// How the last line's peaks were read ([`PeakShape::of`]): the next line's are
+    /// placed the same way first.
+    shape: PeakShape,
 }
 
 /// How a line's gradient peaks are read ([`subpixel_peak`]): the central difference
 /// through three samples (sharp), the 5-tap smoothed derivative (broad) or the 7-tap
 /// one (soft), both with [`broad_fit`].
-#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+#[derive(Clone, Copy, PartialEq, Eq, Debug, Default)]
 enum PeakShape {
+    #[default]
     Sharp,
     Broad,
     Soft,
 }
 
 impl PeakShape {
-    /// The shape of a line's peaks: sharp unless the stripes are wide enough
-    /// ([`SHOULDER_MIN_PERIOD`]) and the line's peaks were broad.
-    fn of(wide_stripes: bool, broad: bool, soft: bool) -> Self {
-        match (wide_stripes && broad, soft) {
-            (false, _) => PeakShape::Sharp,
-            (true, false) => PeakShape::Broad,
-            (true, true) => PeakShape::Soft,
+    /// The shape of a line whose peaks' median variance is `median`
+    /// ([`median_peak_var`]): sharp unless the stripes are wide enough
+    /// ([`SHOULDER_MIN_PERIOD`]) and the median is over [`BROAD_PEAK_VAR`], soft over
+    /// [`SOFT_PEAK_VAR`].
+    fn of(wide_stripes: bool, median: f32) -> Self {
+        if !wide_stripes || median <= BROAD_PEAK_VAR {
+            PeakShape::Sharp
+        } else if median <= SOFT_PEAK_VAR {
+            PeakShape::Broad
+        } else {
+            PeakShape::Soft
         }
     }
 
@@ -360,7 +363,7 @@ impl Segmentation {
         let input = LineInput { restored, linear, flags, axis, period, len };
         for_line_chunks(&mut self.lines, &mut self.scratch, |first, lines, sc| {
             // Each chunk starts sharp (the same whatever ran before or at once).
-            (sc.broad, sc.soft) = (false, false);
+            sc.shape = PeakShape::Sharp;
             for (k, edges) in lines.iter_mut().enumerate() {
                 segment_line(&input, first + k, edges, sc);
             }
@@ -493,7 +496,7 @@ fn segment_line(input: &LineInput, line: usize, edges: &mut Vec<Edge>, sc: &mut 
     // the other way where this line's own edges say otherwise; never broad with
     // narrow stripes, whose neighbouring boundaries the smoothed derivative reaches.
     sc.peaks.clear();
-    let shape = PeakShape::of(wide_stripes, sc.broad, sc.soft);
+    let shape = sc.shape;
     let mut s = 1;
     while s + 1 < len {
         // Usable samples too weak for an edge, passed in a tight loop (most are).
@@ -533,10 +536,8 @@ fn segment_line(input: &LineInput, line: usize, edges: &mut Vec<Edge>, sc: &mut 
         }
         s += 1;
     }
-    let median = median_peak_var(&sc.peaks, &mut sc.widths);
-    sc.broad = wide_stripes && median > BROAD_PEAK_VAR;
-    sc.soft = sc.broad && median > SOFT_PEAK_VAR;
-    let placed = PeakShape::of(wide_stripes, sc.broad, sc.soft);
+    sc.shape = PeakShape::of(wide_stripes, median_peak_var(&sc.peaks, &mut sc.widths));
+    let placed = sc.shape;
     if placed != shape {
         for (e, &(s, _)) in edges.iter_mut().zip(&sc.peaks) {
             let (p, offset, _) = subpixel_peak(&sc.signal, &sc.level, s, len, placed);
@@ -558,7 +559,7 @@ pub const PEAK_REACH: usize = 1;
 
 /// The median variance (pixels²) of a line's gradient peaks, as the central
 /// difference sees them, above which the line's edges are placed with the smoothed
-/// derivative ([`median_peak_var`]): 1.1 (the blur's variance plus the pixels' and the
+/// derivative ([`PeakShape::of`]): 1.1 (the blur's variance plus the pixels' and the
 /// difference's own). On the white wall, the lines' medians are 0.80-0.92 with a
 /// sharp projector and a focused camera (a blur of 0.6 pixels), 1.2-4.5 with the
 /// projector blurred by 3 of its pixels (2 camera pixels); through 4:2:0 chroma most
@@ -632,10 +633,10 @@ fn subpixel_peak(signal: &[Vec<f32>; 3], level: &[Vec<f32>; 3], s: usize, len: u
     let (before, after) = (s.saturating_sub(2), (s + 2).min(len - 1));
     let weight = f32x4::new([0, 1, 2, 3].map(|ch| if ch < 3 { lit_weight(max_f32(level[ch][before], level[ch][after])) } else { 0.0 }));
     // Samples s - 6 ..= s + 6 (the climb, the samples of the fit around the peak and
-    // the derivative's reach), each one's exponential (the three channels in one
-    // four-lane call) taken once: `ex[k]` is sample `first + k`, taken for
+    // the 7-tap derivative's reach of 3), each one's exponential (the three channels
+    // in one four-lane call) taken once: `ex[k]` is sample `first + k`, taken for
     // `have.0 <= k < have.1`.
-    const HALF: usize = PEAK_REACH + BROAD_FIT_HALF + 4;
+    const HALF: usize = PEAK_REACH + BROAD_FIT_HALF + 3;
     let first = s as isize - HALF as isize;
     let mut ex = [f32x4::ZERO; 2 * HALF + 1];
     let reach = match shape {
@@ -699,7 +700,7 @@ fn subpixel_peak(signal: &[Vec<f32>; 3], level: &[Vec<f32>; 3], s: usize, len: u
         }
     }
     if shape != PeakShape::Sharp && p >= BROAD_FIT_HALF && p + BROAD_FIT_HALF < len {
-        let (before, after) = (gradient(p - 2), gradient(p + 2));
+        let (before, after) = (gradient(p - BROAD_FIT_HALF), gradient(p + BROAD_FIT_HALF));
         if let Some(fit) = broad_fit([before, a, b, c, after]) {
             return (p, fit.0, fit.1);
         }
@@ -961,7 +962,7 @@ fn classify(edges: &mut [Edge], sc: &LineScratch, period: f32) {
     // Each side is read no further from the edge than PLATEAU_REACH (the surface's
     // own colour drifts across a wide stripe), except on broad lines (a soft
     // projector, another system's lobes), which read the whole plateau.
-    let reach = if sc.broad { f32::INFINITY } else { PLATEAU_REACH };
+    let reach = if sc.shape != PeakShape::Sharp { f32::INFINITY } else { PLATEAU_REACH };
     for i in 0..n {
         let here = edges[i];
         let has_prev = i > 0 && edges[i - 1].run == here.run && here.pos - edges[i - 1].pos <= HALF_DARK_STRIPE * period;
