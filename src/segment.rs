@@ -286,6 +286,8 @@ impl ScanAxis {
 #[derive(Default)]
 pub struct LineScratch {
     signal: [Vec<f32>; 3],
+    /// The exponential of `signal` (the restored linear light), for [`subpixel_peak`].
+    light: [Vec<f32>; 3],
     level: [Vec<f32>; 3],
     flags: Vec<PixelFlags>,
     /// Each channel's share of the edge strength, dark or not (see `segment_line`).
@@ -408,6 +410,7 @@ fn segment_line(input: &LineInput, line: usize, edges: &mut Vec<Edge>, sc: &mut 
     let w = restored.width;
     for ch in 0..3 {
         sc.signal[ch].resize(len, 0.0);
+        sc.light[ch].resize(len, 0.0);
         sc.level[ch].resize(len, 0.0);
         sc.share[ch].resize(len, 0.0);
     }
@@ -444,6 +447,9 @@ fn segment_line(input: &LineInput, line: usize, edges: &mut Vec<Edge>, sc: &mut 
                 (*a, *b, *c) = (p[0], p[1], p[2]);
             }
         }
+    }
+    for ch in 0..3 {
+        exp_into(&sc.signal[ch], &mut sc.light[ch]);
     }
     let ok = |f: PixelFlags| f & UNUSABLE == 0;
     // Edge strength: squared central differences, summed over the channels
@@ -528,7 +534,7 @@ fn segment_line(input: &LineInput, line: usize, edges: &mut Vec<Edge>, sc: &mut 
             // while its log gradient leans to the darker side (by 0.4 of the blur's
             // deviation for the patterns' steps of 0.35 to 1, a pixel for a soft
             // projector's). See [`subpixel_peak`].
-            let (p, offset, var) = subpixel_peak(&sc.signal, &sc.level, s, len, shape);
+            let (p, offset, var) = subpixel_peak(&sc.light, &sc.level, s, len, shape);
             edges.push(Edge { pos: p as f32 + offset, code: NO_CODE, mask: 0, run: run_id, id: -1, tentative: Tentative::NONE });
             // As the central difference would see it (less what the smoothed
             // derivative adds).
@@ -540,7 +546,7 @@ fn segment_line(input: &LineInput, line: usize, edges: &mut Vec<Edge>, sc: &mut 
     let placed = sc.shape;
     if placed != shape {
         for (e, &(s, _)) in edges.iter_mut().zip(&sc.peaks) {
-            let (p, offset, _) = subpixel_peak(&sc.signal, &sc.level, s, len, placed);
+            let (p, offset, _) = subpixel_peak(&sc.light, &sc.level, s, len, placed);
             e.pos = p as f32 + offset;
         }
     }
@@ -606,7 +612,9 @@ fn median_peak_var(peaks: &[(usize, f32)], widths: &mut Vec<f32>) -> f32 {
 }
 
 /// The sub-pixel place of the boundary whose log strength peaks at sample `s` of a
-/// line of `len` samples with the restored log `signal` per channel: the peak of the
+/// line of `len` samples with the restored linear `light` per channel (the
+/// exponential of the restored log, taken once per line by `segment_line`; `level`
+/// is the frame's linear light, which weighs the channels): the peak of the
 /// linear-light gradient (the sum over channels of its squares), climbed to from `s`
 /// at most [`PEAK_REACH`] samples, then a Gaussian through it and its neighbours (a
 /// parabola through their logs; a blurred step's gradient is a Gaussian, so this is
@@ -624,60 +632,35 @@ fn median_peak_var(peaks: &[(usize, f32)], widths: &mut Vec<f32>) -> f32 {
 /// fitted to five samples, not three ([`broad_fit`]). Returns the
 /// sample, the offset from it (within ±0.5) and the peak's variance (pixels², from
 /// the second difference of the logs, or the fit's; NaN where they have none).
-fn subpixel_peak(signal: &[Vec<f32>; 3], level: &[Vec<f32>; 3], s: usize, len: usize, shape: PeakShape) -> (usize, f32, f32) {
-    use wide::f32x4;
+fn subpixel_peak(light: &[Vec<f32>; 3], level: &[Vec<f32>; 3], s: usize, len: usize, shape: PeakShape) -> (usize, f32, f32) {
     // Each channel weighted as in the edge strength, by how far its brighter side
     // (2 samples out) is above the noise: a channel near the floor on both sides has
     // a restored signal that is mostly noise, and a soft edge's peak is low enough
-    // for that noise to move it. (Lanes: the three channels and a fourth of 0.)
+    // for that noise to move it.
     let (before, after) = (s.saturating_sub(2), (s + 2).min(len - 1));
-    let weight = f32x4::new([0, 1, 2, 3].map(|ch| if ch < 3 { lit_weight(max_f32(level[ch][before], level[ch][after])) } else { 0.0 }));
-    // Samples s - 6 ..= s + 6 (the climb, the samples of the fit around the peak and
-    // the 7-tap derivative's reach of 3), each one's exponential (the three channels
-    // in one four-lane call) taken once: `ex[k]` is sample `first + k`, taken for
-    // `have.0 <= k < have.1`.
-    const HALF: usize = PEAK_REACH + BROAD_FIT_HALF + 3;
-    let first = s as isize - HALF as isize;
-    let mut ex = [f32x4::ZERO; 2 * HALF + 1];
+    let weight: [f32; 3] = std::array::from_fn(|ch| lit_weight(max_f32(level[ch][before], level[ch][after])));
     let reach = match shape {
         PeakShape::Sharp => 1,
         PeakShape::Broad => 2,
         PeakShape::Soft => 3,
     };
-    let sample = |k: usize| {
-        let t = (first + k as isize) as usize;
-        f32x4::new([signal[0][t], signal[1][t], signal[2][t], 0.0]).exp()
-    };
-    // The first three gradients' samples, at once (those on the line).
-    let lo = (HALF - 1 - reach).max((-first).max(0) as usize);
-    let hi = (HALF + 2 + reach).min((len as isize - first) as usize);
-    for k in lo..hi {
-        ex[k] = sample(k);
-    }
-    let mut have = (lo, hi);
-    // The weighted squared gradient at sample t (0 where its stencil leaves the line).
-    let mut gradient = |t: usize| -> f32 {
+    // The weighted squared gradient of the linear light at sample t (0 where its
+    // stencil leaves the line), the channels added in order.
+    let gradient = |t: usize| -> f32 {
         if t < reach || t + reach >= len {
             return 0.0;
         }
-        let k = (t as isize - first) as usize;
-        while have.0 > k - reach {
-            have.0 -= 1;
-            ex[have.0] = sample(have.0);
+        let mut sum = 0.0;
+        for (ch, x) in light.iter().enumerate() {
+            let x = &x[t - reach..=t + reach];
+            let d = match shape {
+                PeakShape::Sharp => (x[2] - x[0]) * 0.5,
+                PeakShape::Broad => (x[4] - x[0] + (x[3] - x[1]) * 2.0) * 0.125,
+                PeakShape::Soft => (x[6] - x[0] + (x[5] - x[1]) * 2.0 + (x[4] - x[2]) * 3.0) * (1.0 / 28.0),
+            };
+            sum += weight[ch] * d * d;
         }
-        while have.1 <= k + reach {
-            ex[have.1] = sample(have.1);
-            have.1 += 1;
-        }
-        let d = match shape {
-            PeakShape::Sharp => (ex[k + 1] - ex[k - 1]) * f32x4::splat(0.5),
-            PeakShape::Broad => (ex[k + 2] - ex[k - 2] + (ex[k + 1] - ex[k - 1]) * f32x4::splat(2.0)) * f32x4::splat(0.125),
-            PeakShape::Soft => {
-                (ex[k + 3] - ex[k - 3] + (ex[k + 2] - ex[k - 2]) * f32x4::splat(2.0) + (ex[k + 1] - ex[k - 1]) * f32x4::splat(3.0))
-                    * f32x4::splat(1.0 / 28.0)
-            }
-        };
-        (weight * d * d).reduce_add()
+        sum
     };
     // Up the slope from `s`, each step to a strictly larger value (so it ends): the
     // log strength leans to the dark side, and it leaves out channels that are dark
@@ -706,7 +689,7 @@ fn subpixel_peak(signal: &[Vec<f32>; 3], level: &[Vec<f32>; 3], s: usize, len: u
         }
     }
     if a > 0.0 && b > 0.0 && c > 0.0 {
-        let l = f32x4::new([a, b, c, 1.0]).ln().to_array();
+        let l = wide::f32x4::new([a, b, c, 1.0]).ln().to_array();
         let den = l[0] - 2.0 * l[1] + l[2];
         if den < 0.0 {
             // A Gaussian's log has second difference -2 / variance.
@@ -716,6 +699,25 @@ fn subpixel_peak(signal: &[Vec<f32>; 3], level: &[Vec<f32>; 3], s: usize, len: u
     }
     let den = a - 2.0 * b + c;
     (p, if den < 0.0 { (0.5 * (a - c) / den).clamp(-0.5, 0.5) } else { 0.0 }, f32::NAN)
+}
+
+/// `out[i] = exp(x[i])`, four samples at a time (the same four-lane exponential for
+/// every sample, so a sample's value does not depend on its neighbours).
+fn exp_into(x: &[f32], out: &mut [f32]) {
+    use wide::f32x4;
+    let n = x.len().min(out.len());
+    let (x, out) = (&x[..n], &mut out[..n]);
+    let mut chunks = out.chunks_exact_mut(4);
+    let mut from = x.chunks_exact(4);
+    for (o, v) in (&mut chunks).zip(&mut from) {
+        o.copy_from_slice(&f32x4::new([v[0], v[1], v[2], v[3]]).exp().to_array());
+    }
+    let (rest, tail) = (chunks.into_remainder(), from.remainder());
+    if !rest.is_empty() {
+        let mut v = [0.0; 4];
+        v[..tail.len()].copy_from_slice(tail);
+        rest.copy_from_slice(&f32x4::new(v).exp().to_array()[..rest.len()]);
+    }
 }
 
 /// Samples either side of a broad line's gradient peak to which [`subpixel_peak`]
@@ -1444,6 +1446,21 @@ mod tests {
         assert!(broad_fit([0.0, g[1], g[2], g[3], g[4]]).is_none());
     }
 
+    /// A line's exponentials, four at a time, are each sample's own (a tail shorter than
+    /// four included) and do not depend on where in the line a sample is.
+    #[test]
+    fn a_line_s_exponentials_are_each_sample_s_own() {
+        let x: Vec<f32> = (0..11).map(|k| -3.0 + 0.55 * k as f32).collect();
+        let mut out = vec![f32::NAN; 11];
+        exp_into(&x, &mut out);
+        for (v, e) in x.iter().zip(&out) {
+            assert!((e / v.exp() - 1.0).abs() < 1e-6, "exp({v}) = {e}");
+        }
+        let mut shifted = vec![f32::NAN; 10];
+        exp_into(&x[1..], &mut shifted);
+        assert_eq!(shifted[..], out[1..]);
+    }
+
     /// A soft projector's stripes, 7.1 pixels wide, whose red steps between 0.2 and 0.6
     /// over a blur of about 2 pixels, under noise of 0.01 (deterministic): the 7-tap
     /// derivative of a soft line places the boundaries closer to their true places than
@@ -1472,11 +1489,16 @@ mod tests {
                 .collect()
         });
         let signal: [Vec<f32>; 3] = std::array::from_fn(|ch| level[ch].iter().map(|v| v.ln()).collect());
+        let light: [Vec<f32>; 3] = std::array::from_fn(|ch| {
+            let mut out = vec![0.0; len];
+            exp_into(&signal[ch], &mut out);
+            out
+        });
         let rms = |shape: PeakShape| {
             let errs: Vec<f32> = bounds[2..58]
                 .iter()
                 .map(|&b| {
-                    let (p, offset, _) = subpixel_peak(&signal, &level, b.round() as usize, len, shape);
+                    let (p, offset, _) = subpixel_peak(&light, &level, b.round() as usize, len, shape);
                     p as f32 + offset - b
                 })
                 .collect();
