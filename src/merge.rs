@@ -386,6 +386,19 @@ pub fn remove_rim(depth: &mut [f32], families: &mut [u8], linear: &[[f32; 3]], w
 /// ColorChecker and occluders (an albedo edge's blur looks the same). The room's light
 /// lifts a half-lit pixel over half of its neighbour's light: occluders/world keeps
 /// most of its silhouette's pixels (0.63 % to 0.62 % outliers; 0.46 % at 0.6).
+///
+/// Tried on 2026-12-05 and not kept: the share with the room's light taken off,
+/// `(l - l_out) / (l_in - l_out)` with `l_out` the undecoded pixel beyond, where that
+/// pixel's colour does not change from 3 pixels either side across the stripes (an
+/// unlit surface shows no stripes; the log-ratio of a channel beyond that of the light
+/// under 0.2). On 24 rows (occluders, colorchecker, wood, plane, sphere, skin x
+/// default, partial, world, webcam) occluders/world went from 0.55 % to 0.49 % outliers,
+/// but mean coverage fell 95.375 % -> 95.312 % for outliers 0.174 % -> 0.160 %: per
+/// outlier removed, 0.5 correct pixels on occluders/world, 5 on wood/webcam and 30 on
+/// colorchecker/default. Most of occluders/world's silhouette stayed, the pixel beyond
+/// failing the colour test (under 4:2:0 it shares its chroma with the half-lit pixel,
+/// a likely cause); without the colour test the silhouette went (0.36 %), at 5-25
+/// correct pixels per outlier elsewhere.
 pub const HALF_LIT_SHARE: f32 = 0.5;
 
 /// Remove the pixels lit over less than half their area from the merged depth: pixels
