@@ -1374,6 +1374,17 @@ mod tests {
             .collect()
     }
 
+    /// The light at `x` of stripes cycling through `palette` with boundaries at `bounds`,
+    /// each blurred in linear light as in [`edge_row`].
+    fn blurred_stripes(palette: &[[f32; 3]], bounds: &[f32], x: f32) -> [f32; 3] {
+        [0, 1, 2].map(|c| {
+            bounds.iter().enumerate().fold(palette[0][c], |v, (k, &b)| {
+                let step = palette[(k + 1) % palette.len()][c] - palette[k % palette.len()][c];
+                v + step / (1.0 + (-(x - b) / 0.4).exp())
+            })
+        })
+    }
+
     fn one_edge(pos: f32) -> Segmentation {
         let edge = Edge {
             pos,
@@ -1401,14 +1412,9 @@ mod tests {
         let mut restored = Restored::new(len, 1);
         let mut linear = vec![[0f32; 3]; len];
         for (x, px) in linear.iter_mut().enumerate() {
+            *px = blurred_stripes(&palette, &bounds, x as f32);
             for c in 0..3 {
-                let mut v = palette[0][c];
-                for (k, &b) in bounds.iter().enumerate() {
-                    let step = palette[(k + 1) % 4][c] - palette[k % 4][c];
-                    v += step / (1.0 + (-(x as f32 - b) / 0.4).exp());
-                }
-                px[c] = v;
-                restored.log[c][x] = v.ln();
+                restored.log[c][x] = px[c].ln();
             }
         }
         let flags = vec![0; len];
@@ -1432,13 +1438,9 @@ mod tests {
         let mut linear = vec![[0f32; 3]; len];
         for (x, px) in linear.iter_mut().enumerate() {
             let albedo = [1.0, green(x as f32), 1.0];
+            let light = blurred_stripes(&palette, bounds, x as f32);
             for c in 0..3 {
-                let mut v = palette[0][c];
-                for (k, &b) in bounds.iter().enumerate() {
-                    let step = palette[(k + 1) % 2][c] - palette[k % 2][c];
-                    v += step / (1.0 + (-(x as f32 - b) / 0.4).exp());
-                }
-                px[c] = v * albedo[c];
+                px[c] = light[c] * albedo[c];
                 restored.log[c][x] = px[c].ln();
             }
         }
@@ -1470,13 +1472,9 @@ mod tests {
         let mut frame = vec![[0u8; 3]; len];
         let mut restored = Restored::new(len, 1);
         for x in 0..len {
+            let light = blurred_stripes(&palette, &bounds, x as f32);
             for c in 0..3 {
-                let mut v = palette[0][c];
-                for (k, &b) in bounds.iter().enumerate() {
-                    let step = palette[(k + 1) % 2][c] - palette[k % 2][c];
-                    v += step / (1.0 + (-(x as f32 - b) / 0.4).exp());
-                }
-                let code = (255.0 * v.min(1.0).powf(1.0 / 2.2)).round() as u8;
+                let code = (255.0 * light[c].min(1.0).powf(1.0 / 2.2)).round() as u8;
                 frame[x][c] = code;
                 linear[x][c] = lut[code as usize];
                 restored.log[c][x] = linear[x][c].ln();
