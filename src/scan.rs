@@ -503,7 +503,7 @@ impl Scanner {
             if smooth {
                 smooth_along_stripes(restored, periods[k], scratch);
             }
-            seg.run(restored, linear, flags, pred.axis, pred.period);
+            seg.run(restored, linear, flags, pred.axis, pred.period, pairs);
             if luma_refine {
                 refine_with_luma(seg, colour.pixels(), w, lut, luma_encoder, pred.period);
             }

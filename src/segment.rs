@@ -37,7 +37,7 @@
 
 use crate::filter::Restored;
 use crate::num::max_f32;
-use crate::raster::{luma, Rgb, SATURATED};
+use crate::raster::{luma, ChromaPairs, Rgb, SATURATED};
 
 /// A code in {-1, 0, +1}³ packed as a base-3 number, `(r+1)·9 + (g+1)·3 + (b+1)`.
 /// [`NO_CODE`] marks a boundary whose transition is not known exactly.
@@ -367,8 +367,10 @@ pub struct Segmentation {
 impl Segmentation {
     /// Find the boundaries of `restored` along `axis`; `linear` is the frame in linear
     /// light (the noise of a ratio depends on the light level), `flags` its
-    /// [`pixel_flags_into`], `period` the expected stripe period in pixels.
-    pub fn run(&mut self, restored: &Restored, linear: &[Rgb], flags: &[PixelFlags], axis: ScanAxis, period: f32) {
+    /// [`pixel_flags_into`], `period` the expected stripe period in pixels, `chroma`
+    /// how the frame's colour was sampled ([`CLIPPED_WEIGHT`] applies only where it is
+    /// at full resolution).
+    pub fn run(&mut self, restored: &Restored, linear: &[Rgb], flags: &[PixelFlags], axis: ScanAxis, period: f32, chroma: ChromaPairs) {
         let (w, h) = (restored.width, restored.height);
         let (nlines, len) = axis.lines(w, h);
         self.axis = Some(axis);
@@ -376,7 +378,8 @@ impl Segmentation {
         // Lines are independent: with threads, chunks of them run at once, each chunk with
         // its own scratch (made at the first frame).
         self.scratch.resize_with(LINE_CHUNKS, LineScratch::default);
-        let input = LineInput { restored, linear, flags, axis, period, len };
+        let clipped_give_way = chroma == ChromaPairs::default();
+        let input = LineInput { restored, linear, flags, axis, period, len, clipped_give_way };
         for_line_chunks(&mut self.lines, &mut self.scratch, |first, lines, sc| {
             // Each chunk starts sharp (the same whatever ran before or at once).
             sc.shape = PeakShape::Sharp;
@@ -415,12 +418,15 @@ struct LineInput<'a> {
     axis: ScanAxis,
     period: f32,
     len: usize,
+    /// Whether channels clipped at a boundary give way to an unclipped one in placing
+    /// it ([`CLIPPED_WEIGHT`]).
+    clipped_give_way: bool,
 }
 
 /// The boundaries of line `line` into `edges`. Runs of usable pixels are numbered
 /// along the line (an edge's `run` is only compared with its own line's).
 fn segment_line(input: &LineInput, line: usize, edges: &mut Vec<Edge>, sc: &mut LineScratch) {
-    let LineInput { restored, linear, flags, axis, period, len } = *input;
+    let LineInput { restored, linear, flags, axis, period, len, clipped_give_way } = *input;
     let w = restored.width;
     for ch in 0..3 {
         sc.signal[ch].resize(len, 0.0);
@@ -548,7 +554,8 @@ fn segment_line(input: &LineInput, line: usize, edges: &mut Vec<Edge>, sc: &mut 
             // while its log gradient leans to the darker side (by 0.4 of the blur's
             // deviation for the patterns' steps of 0.35 to 1, a pixel for a soft
             // projector's). See [`subpixel_peak`].
-            let (p, offset, var) = subpixel_peak(&sc.light, &sc.level, s, len, shape);
+            let clipped = clipped_give_way.then_some(&sc.flags[..]);
+            let (p, offset, var) = subpixel_peak(&sc.light, &sc.level, clipped, s, len, shape);
             edges.push(Edge { pos: p as f32 + offset, code: NO_CODE, mask: 0, run: run_id, id: -1, tentative: Tentative::NONE });
             // As the central difference would see it (less what the smoothed
             // derivative adds).
@@ -560,7 +567,7 @@ fn segment_line(input: &LineInput, line: usize, edges: &mut Vec<Edge>, sc: &mut 
     let placed = sc.shape;
     if placed != shape {
         for (e, &(s, _)) in edges.iter_mut().zip(&sc.peaks) {
-            let (p, offset, _) = subpixel_peak(&sc.light, &sc.level, s, len, placed);
+            let (p, offset, _) = subpixel_peak(&sc.light, &sc.level, clipped_give_way.then_some(&sc.flags[..]), s, len, placed);
             e.pos = p as f32 + offset;
         }
     }
@@ -625,6 +632,46 @@ fn median_peak_var(peaks: &[(usize, f32)], widths: &mut Vec<f32>) -> f32 {
     median
 }
 
+/// Share of its weight ([`lit_weight`]) that a channel clipped at either end of a
+/// boundary (2 samples out) keeps in placing it ([`subpixel_peak`]), where a channel
+/// clipped at neither end changes by over [`CLIPPED_CLEAN_STEP`] of its brighter side.
+/// Clipping cuts the top off a blurred step, so the clipped channel's gradient peaks
+/// towards its unclipped side (0.38 px off with its full weight where the clipped
+/// side is three times over, in the unit test
+/// `a_clipped_channel_leaves_the_boundary_to_an_unclipped_one`), and being the
+/// brightest it outweighed the unclipped one.
+///
+/// Only where the frame's colour is at full resolution: under 4:2:0 chroma an
+/// unclipped channel's own edge is no sharper than the clipped one's, and giving way
+/// made the `world` rows worse (RMSE: plane 0.257 -> 0.264, paper 0.570 -> 0.587, skin
+/// 0.498 -> 0.513, wood 0.655 -> 0.676 mm).
+///
+/// Measured on the 12 `clipped` rows of the hard evaluation (`eval --hard --conditions
+/// clipped`; coverage / outliers / RMSE), full weight -> none -> a quarter:
+/// colorchecker/clipped 94.18 % / 0.306 % / 0.421 mm -> 94.11 % / 0.295 % / 0.404 mm ->
+/// 94.3 % / 0.30 % / 0.402 mm (its goal is 94.16 %; a [`CLIPPED_CLEAN_STEP`] of 0.15 or
+/// 0.5 with no weight gave 94.03 % and 94.12 %). With a quarter, RMSE: sphere 0.367 ->
+/// 0.344, textured 0.426 -> 0.402, occluders 0.376 -> 0.347, paper 0.503 -> 0.493,
+/// wood 0.509 -> 0.500, skin 0.344 -> 0.332, wall 0.217 -> 0.209 mm, coverage the same
+/// or up; paper-dye/clipped the same once [`CLIPPED_CLEAN_LEVEL`] was added.
+pub const CLIPPED_WEIGHT: f32 = 0.25;
+
+/// The change, as a share of the brighter side, of a channel clipped at neither end of
+/// a boundary for the clipped channels to give way to it ([`CLIPPED_WEIGHT`]).
+pub const CLIPPED_CLEAN_STEP: f32 = 0.3;
+
+/// The linear level the brighter side of a channel clipped at neither end of a boundary
+/// must top for the clipped channels to give way to it ([`CLIPPED_WEIGHT`]), about
+/// 8-bit code 90 through gamma 2.2: a dimmer channel's gradient is too noisy to place
+/// the boundary alone. Measured on the 12 `clipped` rows (`eval --hard --conditions
+/// clipped`), paper-dye/clipped (coverage / outliers / RMSE), whose 1 % dyes leave the
+/// unclipped channels dim: with no floor 86.7 % / 0.36 % / 0.697 mm, 0.014 (four times
+/// [`DARK_LEVEL`]) 86.7 % / 0.35 % / 0.696 mm, 0.03 86.7 % / 0.34 % / 0.688 mm, 0.05,
+/// 0.1 and 0.2 87.0 % / 0.32 % / 0.68 mm, as with the clipped channels' full weight;
+/// the other rows kept their gains from 0.05 to 0.1 and lost some at 0.2 (sphere 0.344
+/// -> 0.350 mm).
+pub const CLIPPED_CLEAN_LEVEL: f32 = 0.1;
+
 /// The sub-pixel place of the boundary whose log strength peaks at sample `s` of a
 /// line of `len` samples with the restored linear `light` per channel (the
 /// exponential of the restored log, taken once per line by `segment_line`; `level`
@@ -646,27 +693,34 @@ fn median_peak_var(peaks: &[(usize, f32)], widths: &mut Vec<f32>) -> f32 {
 /// fitted to five samples, not three ([`broad_fit`]). Returns the
 /// sample, the offset from it (within ±0.5) and the peak's variance (pixels², from
 /// the second difference of the logs, or the fit's; NaN where they have none).
-///
-/// A channel clipped on one side is placed towards its unclipped side (clipping cuts
-/// the top off the blurred step; a pixel off where the clipped side is three times
-/// over), and being the brightest it outweighs the others. Tried on 2026-12-05 and not
-/// kept: a quarter of its weight for a channel clipped at either end (2 samples out)
-/// where a channel clipped at neither end changes by over 30 % of its brighter side.
-/// On the `clipped` rows of the hard evaluation it helped (RMSE: sphere 0.367 -> 0.344,
-/// textured 0.426 -> 0.402, occluders 0.376 -> 0.347, colorchecker 0.421 -> 0.402 mm,
-/// paper 0.503 -> 0.494, coverage the same or up), but on the `world` rows, whose
-/// colour is at half resolution (4:2:0), it hurt (plane 0.257 -> 0.264, paper 0.570 ->
-/// 0.587, skin 0.498 -> 0.513, wood 0.655 -> 0.676 mm; paper-dye/clipped 87.0 % / 0.32
-/// % -> 86.7 % / 0.36 %): there an unclipped channel's own edge is no sharper than
-/// the clipped one's. With no weight at all, colorchecker/clipped lost coverage
-/// (94.18 -> 94.11 %, under its goal of 94.16 %).
-fn subpixel_peak(light: &[Vec<f32>; 3], level: &[Vec<f32>; 3], s: usize, len: usize, shape: PeakShape) -> (usize, f32, f32) {
+/// `clipped`, the line's pixel flags where the frame's colour is at full resolution,
+/// lets channels clipped at the boundary give way to an unclipped one
+/// ([`CLIPPED_WEIGHT`]).
+fn subpixel_peak(light: &[Vec<f32>; 3], level: &[Vec<f32>; 3], clipped: Option<&[PixelFlags]>, s: usize, len: usize, shape: PeakShape) -> (usize, f32, f32) {
     // Each channel weighted as in the edge strength, by how far its brighter side
     // (2 samples out) is above the noise: a channel near the floor on both sides has
     // a restored signal that is mostly noise, and a soft edge's peak is low enough
     // for that noise to move it.
     let (before, after) = (s.saturating_sub(2), (s + 2).min(len - 1));
-    let weight: [f32; 3] = std::array::from_fn(|ch| lit_weight(max_f32(level[ch][before], level[ch][after])));
+    let mut weight: [f32; 3] = std::array::from_fn(|ch| lit_weight(max_f32(level[ch][before], level[ch][after])));
+    // A channel clipped at either end has had the top of its step cut off, so its
+    // gradient peaks towards the unclipped side; where a channel clipped at neither
+    // end changes too, that one places the boundary.
+    let clipped = clipped.map_or(0, |f| (f[before] | f[after]) & 0x07);
+    if clipped != 0 && clipped != 0x07 {
+        let changes = |ch: usize| {
+            let (a, b) = (level[ch][before], level[ch][after]);
+            let bright = max_f32(a, b);
+            bright > CLIPPED_CLEAN_LEVEL && (a - b).abs() > CLIPPED_CLEAN_STEP * bright
+        };
+        if (0..3).any(|ch| clipped & (1 << ch) == 0 && changes(ch)) {
+            for (ch, w) in weight.iter_mut().enumerate() {
+                if clipped & (1 << ch) != 0 {
+                    *w *= CLIPPED_WEIGHT;
+                }
+            }
+        }
+    }
     let reach = match shape {
         PeakShape::Sharp => 1,
         PeakShape::Broad => 2,
@@ -1419,7 +1473,7 @@ mod tests {
         }
         let flags = vec![0; len];
         let mut seg = Segmentation::default();
-        seg.run(&restored, &linear, &flags, ScanAxis::Rows, 3.0);
+        seg.run(&restored, &linear, &flags, ScanAxis::Rows, 3.0, ChromaPairs::default());
         let found: Vec<f32> = seg.lines[0].iter().map(|e| e.pos).collect();
         assert_eq!(found.len(), bounds.len(), "boundaries at {bounds:?}, edges at {found:?}");
         for (&f, &b) in found.iter().zip(&bounds) {
@@ -1445,7 +1499,7 @@ mod tests {
             }
         }
         let mut seg = Segmentation::default();
-        seg.run(&restored, &linear, &vec![0; len], ScanAxis::Rows, period);
+        seg.run(&restored, &linear, &vec![0; len], ScanAxis::Rows, period, ChromaPairs::default());
         let edges = &seg.lines[0];
         assert_eq!(edges.len(), bounds.len(), "edges at {:?}", edges.iter().map(|e| e.pos).collect::<Vec<_>>());
         for (k, e) in edges.iter().enumerate() {
@@ -1484,7 +1538,7 @@ mod tests {
         assert_eq!(pixel_flags_into(&frame, &linear, &mut flags), len, "every pixel is lit, so usable");
         assert!(flags.iter().any(|&f| f & 0x07 == 0x07), "some pixels are clipped in every channel");
         let mut seg = Segmentation::default();
-        seg.run(&restored, &linear, &flags, ScanAxis::Rows, 8.0);
+        seg.run(&restored, &linear, &flags, ScanAxis::Rows, 8.0, ChromaPairs::default());
         let edges = &seg.lines[0];
         assert_eq!(edges.len(), bounds.len(), "edges at {:?}", edges.iter().map(|e| e.pos).collect::<Vec<_>>());
         for (k, e) in edges.iter().enumerate() {
@@ -1576,7 +1630,7 @@ mod tests {
             let errs: Vec<f32> = bounds[2..58]
                 .iter()
                 .map(|&b| {
-                    let (p, offset, _) = subpixel_peak(&light, &level, b.round() as usize, len, shape);
+                    let (p, offset, _) = subpixel_peak(&light, &level, None, b.round() as usize, len, shape);
                     p as f32 + offset - b
                 })
                 .collect();
@@ -1585,6 +1639,29 @@ mod tests {
         let (broad, soft) = (rms(PeakShape::Broad), rms(PeakShape::Soft));
         eprintln!("boundaries RMS: 5-tap {broad:.3} px, 7-tap {soft:.3} px");
         assert!(soft < 0.9 * broad, "RMS soft {soft}, broad {broad}");
+    }
+
+    /// One boundary where red falls from three times what clips to 0.6 of it and blue
+    /// rises from 0.25 to 0.8, blurred in linear light and then clipped ([`edge_row`]):
+    /// the clipped red would pull the boundary towards its unclipped (right) side, by
+    /// 0.38 px with its full weight; blue, clipped at neither end, places it
+    /// ([`CLIPPED_WEIGHT`]).
+    #[test]
+    fn a_clipped_channel_leaves_the_boundary_to_an_unclipped_one() {
+        let lut = gamma_lut(2.2);
+        for x0 in [14.0, 14.25, 14.5, 14.75] {
+            // Over 1, the 8-bit cast saturates: the camera clips.
+            let frame = edge_row(x0, [3.0, 0.5, 0.25], [0.6, 0.5, 0.8]);
+            let len = frame.len();
+            let linear: Vec<Rgb> = frame.iter().map(|p| p.map(|v| lut[v as usize])).collect();
+            let mut flags = vec![0; len];
+            pixel_flags_into(&frame, &linear, &mut flags);
+            assert!(flags[..12].iter().all(|&f| f & 1 != 0) && flags[17..].iter().all(|&f| f & 0x07 == 0), "red clipped on the left only");
+            let level: [Vec<f32>; 3] = std::array::from_fn(|ch| linear.iter().map(|p| p[ch]).collect());
+            let (p, offset, _) = subpixel_peak(&level, &level, Some(&flags), x0.round() as usize, len, PeakShape::Sharp);
+            let pos = p as f32 + offset;
+            assert!((pos - x0).abs() < 0.2, "edge at {x0}, placed at {pos}");
+        }
     }
 
     /// Stripes 40 pixels wide on a surface whose green dips smoothly (to 0.2, σ 7
@@ -1635,7 +1712,7 @@ mod tests {
             }
         }
         let mut seg = Segmentation::default();
-        seg.run(&restored, &linear, &vec![0; len * lines], ScanAxis::Rows, width);
+        seg.run(&restored, &linear, &vec![0; len * lines], ScanAxis::Rows, width, ChromaPairs::default());
         let (mut sum, mut n) = (0f32, 0usize);
         for (line, edges) in seg.lines.iter().enumerate() {
             let shift = line as f32 * 0.37 % 1.0;
