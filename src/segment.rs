@@ -991,6 +991,23 @@ fn plateau(sc: &LineScratch, a: f32, b: f32) -> Option<[Side; 3]> {
 /// shift is within [`NOISE_SIGMAS`] of its noise (`nl`, `nr`: the sides'
 /// [`log_noise`]); most boundaries then keep their plain step, and the noise of a slope
 /// from a few pixels stays out of them.
+///
+/// Where this is not enough (measured on 2026-12-05 with a scratch tool comparing each
+/// boundary's codes with the pattern's transition at the ground truth's projector
+/// coordinate): on the `bag` under `default`, of the bag's real boundaries (every 4th
+/// line of family 0), 57 % of those read as one exact code and 29 % of those read as 2
+/// to 6 codes exclude the true transition. Its hue wanders over two turns of the
+/// colour circle within a blotch, so a channel falls from 0.72 to 1 % over a few
+/// pixels, as steep in the log as a stripe's step, and where that falls on a boundary
+/// the channel reads the surface's step, not the pattern's. Tried and not kept: each
+/// channel's step given the noise `k · max(|slope left|, |slope right|) · distance`,
+/// with every plateau's slope (fitting its line or not) (`eval --hard --conditions
+/// default,webcam` on six scenes, coverage): k = 0.15 bag 65.6 -> 68.7 %, bag/webcam
+/// 57.1 -> 61.5 % (goal 64.5 %), but colorchecker 91.3 -> 91.0 %, wood 96.2 -> 95.8 %;
+/// k = 0.3 with slopes over 0.05 a pixel only, bag 67.6 %, bag/webcam 61.1 %, wood
+/// 95.7 %, wood/webcam 93.3 -> 92.9 %; only for a channel under a quarter of its side's
+/// brightest, bag 66.6 %, wood 95.8 %. Exact readings that wrong want an alignment
+/// that weighs each channel's reading by how flat its plateaus are, not a wider mask.
 fn surface_change(l: &Side, r: &Side, nl: f32, nr: f32) -> Option<(f32, f32)> {
     let (Some(gl), Some(gr)) = (l.slope, r.slope) else {
         return None;
