@@ -424,6 +424,20 @@ impl Decoder {
     /// bits, continuations within 0.7 pixels and labels that break their line's order
     /// or spacing removed, 88.44 % / 0.619 %; after propagation and confirmed by
     /// another family, 86.31 % / 0.372 % (with the order check 85.40 % / 0.394 %).
+    ///
+    /// Tried on 2026-12-05 and not kept: a chain's label taken as the line's own (no
+    /// confirmation asked) where the next two identified edges on one side of it, in
+    /// its run and not chain-labelled, carry the next two identities and the stripe
+    /// between is as wide as the one beyond within [`STRIPE_WIDTH_JUMP`]. The band
+    /// beside a depth edge is where this was meant for: on `wood`, the board's first
+    /// stripes right of the plank, which only family 0 reads and only by chains. On
+    /// the `default`, `webcam`, `world` and `wide` rows of wood, colorchecker, bag,
+    /// skin, paper-dye and occluders (24 rows, mean coverage / outliers) it gave 85.75
+    /// % / 0.410 % -> 86.17 % / 0.455 %; without extending past such an edge 86.06 % /
+    /// 0.438 %; stripes within 1.15 of each other 86.13 % / 0.440 %; with the line's
+    /// own best identity agreeing too 86.01 % / 0.442 %: about ten right pixels per
+    /// wrong one, at half-lit pixels along depth edges and shadows, and no goal met
+    /// (wood/world 93.7 -> 94.1 %, its goal 94.24 %).
     fn label_chains(&mut self, seg: &mut Segmentation) {
         let lines = &mut seg.lines;
         self.line_start.clear();
