@@ -992,11 +992,12 @@ fn plateau(sc: &LineScratch, a: f32, b: f32) -> Option<[Side; 3]> {
 /// [`log_noise`]); most boundaries then keep their plain step, and the noise of a slope
 /// from a few pixels stays out of them.
 ///
-/// Where this is not enough (measured on 2026-12-05 with a scratch tool comparing each
-/// boundary's codes with the pattern's transition at the ground truth's projector
-/// coordinate): on the `bag` under `default`, of the bag's real boundaries (every 4th
-/// line of family 0), 57 % of those read as one exact code and 29 % of those read as 2
-/// to 6 codes exclude the true transition. Its hue wanders over two turns of the
+/// Where this is not enough (`cargo run --release --example boundary_codes -- bag
+/// default 140 100 500 420`, which compares each boundary's codes with the pattern's
+/// transition at the ground truth's projector coordinate): of the bag's real
+/// boundaries, 56 % (family 0) and 53 % (family 1) of those read as one exact code,
+/// and 30 % of those read as 2 to 6 codes, leave out the true transition; on the
+/// `wall`, none of 43 700. Its hue wanders over two turns of the
 /// colour circle within a blotch, so a channel falls from 0.72 to 1 % over a few
 /// pixels, as steep in the log as a stripe's step, and where that falls on a boundary
 /// the channel reads the surface's step, not the pattern's. Tried and not kept: each
