@@ -14,10 +14,8 @@
 //! and how many identities the decoder gave and how many of them are wrong.
 
 use stripelight::eval::hard;
-use stripelight::scan::{ScanConfig, Scanner};
 use stripelight::segment::{pack, ScanAxis};
-use stripelight::sim::{Scene, Scratch, View};
-use stripelight::Image;
+use stripelight::sim::Scene;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().skip(1).collect();
@@ -26,20 +24,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     };
     let window: Vec<usize> = args[2..].iter().map(|a| a.parse()).collect::<Result<_, _>>()?;
     let cond = hard::condition(condition)?;
-    let crosstalk = hard::HardEval::new(1).crosstalk(cond)?;
-    let calib = cond.rig()?;
-    let spec = cond.pattern(&calib)?;
-    let pattern = spec.render_rgb8();
-    let scene = Scene::builtin(scene_name)?;
-    let mut camera = cond.camera(1, spec.encoding_gamma as f32);
-    let view = View::new(&scene, &calib, &camera)?;
-    if let Some(share) = cond.clip_fraction {
-        camera.exposure = view.exposure_for_clipping(&pattern, &camera, share)?;
-    }
-    let mut frame = Image::new(0, 0, [0u8; 3]);
-    view.photograph_into(&pattern, &camera, &mut Scratch::default(), &mut frame)?;
-    let mut scanner = Scanner::new(spec.clone(), calib, ScanConfig { crosstalk, ..ScanConfig::default() })?;
+    let mut rows = hard::HardEval::new(1);
+    let (frame, view, _) = rows.photograph(&Scene::builtin(scene_name)?, cond)?;
+    let mut scanner = rows.scanner(cond)?;
     scanner.scan(&frame)?;
+    let spec = scanner.spec().clone();
     let truth = view.truth();
     let (w, h) = truth.depth.size();
     let (x0, y0, x1, y1) = match window[..] {

@@ -156,6 +156,9 @@ pub const LIT_BESIDE_DARK: f32 = 4.0;
 /// [`UNUSABLE`] the pixel cannot take part in decoding.
 pub type PixelFlags = u8;
 
+/// The bits of [`PixelFlags`] that say a channel is clipped.
+const CLIPPED_BITS: PixelFlags = 0x07;
+
 /// Flag of a pixel that is unlit (every channel dark): it cannot take part in decoding.
 ///
 /// A pixel clipped in every channel is usable: it is lit, more brightly than the camera
@@ -523,6 +526,7 @@ fn segment_line(input: &LineInput, line: usize, edges: &mut Vec<Edge>, sc: &mut 
     // narrow stripes, whose neighbouring boundaries the smoothed derivative reaches.
     sc.peaks.clear();
     let shape = sc.shape;
+    let clipped = clipped_give_way.then_some(&sc.flags[..]);
     let mut s = 1;
     while s + 1 < len {
         // Usable samples too weak for an edge, passed in a tight loop (most are).
@@ -554,7 +558,6 @@ fn segment_line(input: &LineInput, line: usize, edges: &mut Vec<Edge>, sc: &mut 
             // while its log gradient leans to the darker side (by 0.4 of the blur's
             // deviation for the patterns' steps of 0.35 to 1, a pixel for a soft
             // projector's). See [`subpixel_peak`].
-            let clipped = clipped_give_way.then_some(&sc.flags[..]);
             let (p, offset, var) = subpixel_peak(&sc.light, &sc.level, clipped, s, len, shape);
             edges.push(Edge { pos: p as f32 + offset, code: NO_CODE, mask: 0, run: run_id, id: -1, tentative: Tentative::NONE });
             // As the central difference would see it (less what the smoothed
@@ -567,7 +570,7 @@ fn segment_line(input: &LineInput, line: usize, edges: &mut Vec<Edge>, sc: &mut 
     let placed = sc.shape;
     if placed != shape {
         for (e, &(s, _)) in edges.iter_mut().zip(&sc.peaks) {
-            let (p, offset, _) = subpixel_peak(&sc.light, &sc.level, clipped_give_way.then_some(&sc.flags[..]), s, len, placed);
+            let (p, offset, _) = subpixel_peak(&sc.light, &sc.level, clipped, s, len, placed);
             e.pos = p as f32 + offset;
         }
     }
@@ -706,8 +709,8 @@ fn subpixel_peak(light: &[Vec<f32>; 3], level: &[Vec<f32>; 3], clipped: Option<&
     // A channel clipped at either end has had the top of its step cut off, so its
     // gradient peaks towards the unclipped side; where a channel clipped at neither
     // end changes too, that one places the boundary.
-    let clipped = clipped.map_or(0, |f| (f[before] | f[after]) & 0x07);
-    if clipped != 0 && clipped != 0x07 {
+    let clipped = clipped.map_or(0, |f| (f[before] | f[after]) & CLIPPED_BITS);
+    if clipped != 0 && clipped != CLIPPED_BITS {
         let changes = |ch: usize| {
             let (a, b) = (level[ch][before], level[ch][after]);
             let bright = max_f32(a, b);

@@ -404,27 +404,49 @@ impl HardEval {
         Ok(self.render_and_scan(scene_name, cond)?.0)
     }
 
-    fn render_and_scan(&mut self, scene_name: &str, cond: &'static Condition) -> Result<(OneShot, View, SimConfig)> {
-        let crosstalk = self.crosstalk(cond)?;
+    /// `cond`'s rig, pattern spec and pattern image, made at the first call.
+    fn setup(&mut self, cond: &'static Condition) -> Result<&(Calibration, PatternSpec, Image<[u8; 3]>)> {
         if !self.setups.contains_key(cond.name) {
             let calib = cond.rig()?;
             let spec = cond.pattern(&calib)?;
             let pattern = spec.render_rgb8();
             self.setups.insert(cond.name, (calib, spec, pattern));
         }
-        let (calib, spec, pattern) = &self.setups[cond.name];
-        let scene = Scene::builtin(scene_name)?;
-        let mut cfg = cond.camera(self.seed, spec.encoding_gamma as f32);
-        let view = View::new(&scene, calib, &cfg)?;
+        Ok(&self.setups[cond.name])
+    }
+
+    /// The frame a row's one-shot scan decodes: `scene` photographed under `cond`'s
+    /// pattern and camera (its exposure set to clip as the condition says), with the
+    /// view (whose [`View::truth`] measures a scan of it) and the camera.
+    pub fn photograph(&mut self, scene: &Scene, cond: &'static Condition) -> Result<(Image<[u8; 3]>, View, SimConfig)> {
+        let seed = self.seed;
+        let (calib, spec, pattern) = self.setup(cond)?;
+        let mut cfg = cond.camera(seed, spec.encoding_gamma as f32);
+        let view = View::new(scene, calib, &cfg)?;
         if let Some(f) = cond.clip_fraction {
             cfg.exposure = view.exposure_for_clipping(pattern, &cfg, f)?;
         }
         let mut frame = Image::new(0, 0, [0u8; 3]);
         view.photograph_into(pattern, &cfg, &mut Scratch::default(), &mut frame)?;
-        let clipped = clipped_fraction(&frame, &view.bright_stripe_mask(pattern, &cfg));
+        Ok((frame, view, cfg))
+    }
 
+    /// The scanner of a row's one-shot scan: `cond`'s rig and pattern, `loggrad`, the
+    /// colour mixing measured for the condition.
+    pub fn scanner(&mut self, cond: &'static Condition) -> Result<Scanner> {
+        let crosstalk = self.crosstalk(cond)?;
+        let (calib, spec, _) = self.setup(cond)?;
         let config = ScanConfig { filter: FilterMode::LogGrad, crosstalk, ..ScanConfig::default() };
-        let mut scanner = Scanner::new(spec.clone(), calib.clone(), config)?;
+        Scanner::new(spec.clone(), calib.clone(), config)
+    }
+
+    fn render_and_scan(&mut self, scene_name: &str, cond: &'static Condition) -> Result<(OneShot, View, SimConfig)> {
+        let crosstalk = self.crosstalk(cond)?;
+        let scene = Scene::builtin(scene_name)?;
+        let (frame, view, cfg) = self.photograph(&scene, cond)?;
+        let mut scanner = self.scanner(cond)?;
+        let (calib, _, pattern) = &self.setups[cond.name];
+        let clipped = clipped_fraction(&frame, &view.bright_stripe_mask(pattern, &cfg));
         let depth = scanner.scan(&frame)?.depth.clone();
         let truth = view.truth();
         let one_shot = OneShot {
