@@ -15,7 +15,7 @@ use crate::filter::{smooth_along_stripes, FamilyWindow, FilterMode, LogGradFilte
 use crate::merge;
 use crate::pattern::PatternSpec;
 use crate::raster::{detect_chroma_pairs, gamma_lut, interpolate_chroma_into, rgb8_pixels_to_linear, rgba8_into, ChromaPairs, Image, Rgb};
-use crate::segment::{pixel_flags_into, refine_with_luma, LumaEncoder, PixelFlags, ScanAxis, Segmentation};
+use crate::segment::{clip_leak, pixel_flags_into, refine_with_luma, LumaEncoder, PixelFlags, ScanAxis, Segmentation};
 use crate::stages::{Stage, StageInputs};
 use crate::triangulate::Triangulator;
 use glam::DVec3;
@@ -176,6 +176,9 @@ pub struct Scanner {
     luma_encoder: LumaEncoder,
     /// Inverse of the crosstalk matrix, `None` for the identity.
     unmix: Option<glam::Mat3>,
+    /// What the unmixing can overstate a channel by where another clips
+    /// ([`clip_leak`]), `None` for the identity.
+    leak: Option<[[f32; 3]; 3]>,
     /// Inputs of the last frame and the stages' working buffers, kept for
     /// [`Scanner::stages`] (they are needed anyway: keeping them costs nothing).
     frame: Image<[u8; 3]>,
@@ -383,6 +386,7 @@ impl Scanner {
             lut,
             luma_encoder,
             unmix,
+            leak: unmix.as_ref().map(clip_leak),
             windows,
             stripes_along_rows: predictions.iter().enumerate().fold(0u8, |m, (k, p)| if p.axis == ScanAxis::Columns { m | 1 << k } else { m }),
             predictions,
@@ -455,7 +459,7 @@ impl Scanner {
         };
         // Gamma and the colour mixing undone, and the pixel flags, in chunks of the
         // frame that run at once with threads.
-        let (lut, unmix) = (&self.lut, self.unmix);
+        let (lut, unmix, leak) = (&self.lut, self.unmix, self.leak.as_ref());
         let chunk = (w * h).div_ceil(LINEARIZE_CHUNKS).max(1);
         let linearize = |((colour, frame), (linear, flags)): ((&[[u8; 3]], &[[u8; 3]]), (&mut [Rgb], &mut [PixelFlags]))| {
             rgb8_pixels_to_linear(colour, lut, linear);
@@ -464,7 +468,7 @@ impl Scanner {
                     *p = (m * glam::Vec3::from_array(*p)).max(glam::Vec3::ZERO).to_array();
                 }
             }
-            pixel_flags_into(frame, linear, flags)
+            pixel_flags_into(frame, linear, leak, flags)
         };
         #[cfg(parallel)]
         let usable: usize = {
