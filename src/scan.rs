@@ -14,8 +14,8 @@ use crate::error::{Error, Result};
 use crate::filter::{smooth_along_stripes, FamilyWindow, FilterMode, LogGradFilter, Restored, Tiling};
 use crate::merge;
 use crate::pattern::PatternSpec;
-use crate::raster::{detect_chroma_pairs, gamma_lut, interpolate_chroma_into, rgb8_pixels_to_linear, rgba8_into, ChromaPairs, Image, Rgb};
-use crate::segment::{clip_leak, pixel_flags_into, refine_with_luma, LumaEncoder, PixelFlags, ScanAxis, Segmentation};
+use crate::raster::{detect_chroma_pairs, gamma_lut, interpolate_chroma_into, rgb8_pixels_to_linear, rgba8_into, ChromaPairs, Image, Rgb, SATURATED};
+use crate::segment::{clip_leak, pixel_flags_into, SUBSAMPLED_CLIP_LEVEL, refine_with_luma, LumaEncoder, PixelFlags, ScanAxis, Segmentation};
 use crate::stages::{Stage, StageInputs};
 use crate::triangulate::Triangulator;
 use glam::DVec3;
@@ -459,7 +459,9 @@ impl Scanner {
         };
         // Gamma and the colour mixing undone, and the pixel flags, in chunks of the
         // frame that run at once with threads.
-        let (lut, unmix, leak) = (&self.lut, self.unmix, self.leak.as_ref());
+        let (lut, unmix) = (&self.lut, self.unmix);
+        let level = if pairs == ChromaPairs::default() { SATURATED } else { SUBSAMPLED_CLIP_LEVEL };
+        let leak = self.leak.as_ref().map(|l| (l, level));
         let chunk = (w * h).div_ceil(LINEARIZE_CHUNKS).max(1);
         let linearize = |((colour, frame), (linear, flags)): ((&[[u8; 3]], &[[u8; 3]]), (&mut [Rgb], &mut [PixelFlags]))| {
             rgb8_pixels_to_linear(colour, lut, linear);
