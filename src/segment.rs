@@ -1093,7 +1093,12 @@ fn plateau(sc: &LineScratch, a: f32, b: f32) -> Option<[Side; 3]> {
 /// stripe boundaries, which a span tied to the largest step, large at a shadow's
 /// edge, made easy. A fixed span of 0.15 in the log kept occluders/wide at 0.46 % but
 /// gained less (85.80 % / 0.380 %; wood 96.2 -> 95.6 %, occluders 0.17 -> 0.23 %
-/// outliers); 0.3, 85.33 % / 0.382 %.
+/// outliers); 0.3, 85.33 % / 0.382 %. Two guards against shadow edges did not keep
+/// occluders/wide's outliers down either (s = 0.15, the same 24 rows): the shift only
+/// where both plateaus are bounded by other edges within [`HALF_DARK_STRIPE`] periods,
+/// 85.91 % / 0.404 % with occluders/wide at 0.63 %; only where the two sides'
+/// brightest channels are within a ratio of 2, 85.78 % / 0.413 % (0.59 %), of 4, 85.90
+/// % / 0.407 %. What lets the shift put them in the shadows is not found.
 fn surface_change(l: &Side, r: &Side, nl: f32, nr: f32) -> Option<(f32, f32)> {
     let (Some(gl), Some(gr)) = (l.slope, r.slope) else {
         return None;
