@@ -15,7 +15,7 @@ use crate::filter::{smooth_along_stripes, FamilyWindow, FilterMode, LogGradFilte
 use crate::merge;
 use crate::pattern::PatternSpec;
 use crate::raster::{detect_chroma_pairs, gamma_lut, interpolate_chroma_into, rgb8_pixels_to_linear, rgba8_into, ChromaPairs, Image, Rgb, SATURATED};
-use crate::segment::{clip_leak, pixel_flags_into, SUBSAMPLED_CLIP_LEVEL, refine_with_luma, LumaEncoder, PixelFlags, ScanAxis, Segmentation};
+use crate::segment::{clip_leak, pixel_flags_into, refine_with_luma, LumaEncoder, PixelFlags, ScanAxis, Segmentation, SUBSAMPLED_CLIP_LEVEL};
 use crate::stages::{Stage, StageInputs};
 use crate::triangulate::Triangulator;
 use glam::DVec3;
@@ -176,8 +176,8 @@ pub struct Scanner {
     luma_encoder: LumaEncoder,
     /// Inverse of the crosstalk matrix, `None` for the identity.
     unmix: Option<glam::Mat3>,
-    /// What the unmixing can overstate a channel by where another clips
-    /// ([`clip_leak`]), `None` for the identity.
+    /// What the unmixing is taken to overstate a channel by where another clips
+    /// ([`clip_leak`]), made once with `unmix`; `None` for the identity.
     leak: Option<[[f32; 3]; 3]>,
     /// Inputs of the last frame and the stages' working buffers, kept for
     /// [`Scanner::stages`] (they are needed anyway: keeping them costs nothing).
