@@ -358,7 +358,7 @@ impl Scanner {
         Ok(Scanner {
             filter: LogGradFilter::for_frame(w, h, period, config.tiling)?,
             restored: (0..n).map(|_| Restored::new(w, h)).collect(),
-            segmentations: (0..n).map(|_| Segmentation::default()).collect(),
+            segmentations: (0..n).map(|_| Segmentation::for_pattern(spec.unlit_channels())).collect(),
             // A single family is not merged: it needs no weights.
             weights: (0..n).map(|_| if n > 1 { plane() } else { Vec::new() }).collect(),
             merged_families: vec![0; w * h],

@@ -437,6 +437,11 @@ impl PatternSpec {
         }
     }
 
+    /// Per channel, whether some stripe of the sequence leaves it unlit (level 0).
+    pub fn unlit_channels(&self) -> [bool; 3] {
+        std::array::from_fn(|c| self.sequence.iter().any(|&i| self.palette.get(i as usize).is_some_and(|p| p[c] == 0.0)))
+    }
+
     /// The transition from stripe `j - 1` to stripe `j` (boundary 0 and boundary
     /// `count` are the background's edges).
     pub fn boundary_transition(&self, family: usize, j: usize) -> Transition {
