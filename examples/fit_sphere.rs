@@ -23,6 +23,14 @@
 //!   surface, share of points more than `--tolerance` mm off, default 2), then again
 //!   over the points within `--trim` mm of the previous fit (default 10, repeated until
 //!   the number kept settles), which shows the shape without wrongly identified stripes.
+//! - `--correspondence CORR.pfm --stripe-width W` (what `stripelight scan --correspondence`
+//!   writes, and the spec's stripe width in projector pixels), for a flat target: on a
+//!   plane the projector coordinate of the first family is a smooth function of the camera
+//!   pixel, so a cubic in the pixel's x and y is fitted to it over the object's pixels
+//!   (again trimmed, down to half a stripe), and the shares of those pixels within a
+//!   quarter and half a stripe of it, and more than one stripe off (a wrong identity), are
+//!   printed. Unlike the plane fit of the points, this does not depend on how well the
+//!   rig is calibrated.
 
 // Small fixed-size matrices read best with index loops.
 #![allow(clippy::needless_range_loop)]
@@ -58,6 +66,8 @@ struct Options {
     tolerance: f64,
     trim: f64,
     expect_radius: Option<f64>,
+    correspondence: Option<String>,
+    stripe_width: Option<f64>,
 }
 
 /// The part of the frame the object can be in.
@@ -86,7 +96,7 @@ impl Region {
     }
 }
 
-const USAGE: &str = "usage: fit_sphere CLOUD.ply [--mask MASK.png] [--image FRAME.png (--circle CX,CY,R | --polygon X,Y,X,Y,...) --threshold T [--spread N] [--write-mask OUT.png]] [--shape sphere|plane] [--tolerance MM] [--trim MM] [--expect-radius MM]";
+const USAGE: &str = "usage: fit_sphere CLOUD.ply [--mask MASK.png] [--image FRAME.png (--circle CX,CY,R | --polygon X,Y,X,Y,...) --threshold T [--spread N] [--write-mask OUT.png]] [--shape sphere|plane] [--tolerance MM] [--trim MM] [--expect-radius MM] [--correspondence CORR.pfm --stripe-width W]";
 
 fn parse_args() -> Result<Options, String> {
     let mut args = std::env::args().skip(1);
@@ -102,6 +112,8 @@ fn parse_args() -> Result<Options, String> {
         tolerance: 2.0,
         trim: 10.0,
         expect_radius: None,
+        correspondence: None,
+        stripe_width: None,
     };
     let number = |name: &str, v: Option<String>| -> Result<f64, String> {
         let v = v.ok_or_else(|| format!("{name} needs a value"))?;
@@ -134,6 +146,8 @@ fn parse_args() -> Result<Options, String> {
             "--tolerance" => o.tolerance = number("--tolerance", args.next())?,
             "--trim" => o.trim = number("--trim", args.next())?,
             "--expect-radius" => o.expect_radius = Some(number("--expect-radius", args.next())?),
+            "--correspondence" => o.correspondence = Some(args.next().ok_or("--correspondence needs a path")?),
+            "--stripe-width" => o.stripe_width = Some(number("--stripe-width", args.next())?),
             "--shape" => {
                 o.shape = match args.next().as_deref() {
                     Some("sphere") => Shape::Sphere,
@@ -155,6 +169,9 @@ fn parse_args() -> Result<Options, String> {
     }
     if o.image.is_some() != (o.region.is_some() && o.threshold.is_some()) || (o.image.is_none() && (o.region.is_some() || o.threshold.is_some())) {
         return Err("--image, --circle (or --polygon) and --threshold go together".into());
+    }
+    if o.correspondence.is_some() != o.stripe_width.is_some() || o.stripe_width.is_some_and(|w| w <= 0.0) {
+        return Err("--correspondence and a positive --stripe-width go together".into());
     }
     if o.tolerance <= 0.0 || o.trim <= 0.0 {
         return Err("--tolerance and --trim must be positive".into());
@@ -564,5 +581,56 @@ fn run() -> Result<(), String> {
     }
     report(&format!("fit, points within {} mm", o.trim), &current, &kept, o.tolerance, o.expect_radius);
     println!("kept {:.2}% of the fitted points", 100.0 * kept.len() as f64 / selected.len().max(1) as f64);
+    if let (Some(path), Some(width)) = (&o.correspondence, o.stripe_width) {
+        stripe_consistency(path, width, mask.as_ref())?;
+    }
+    Ok(())
+}
+
+/// The cubic terms of a camera pixel (coordinates in thousands of pixels).
+fn cubic_terms(x: f64, y: f64) -> [f64; 10] {
+    let (x, y) = (x / 1000.0, y / 1000.0);
+    [1.0, x, y, x * x, x * y, y * y, x * x * x, x * x * y, x * y * y, y * y * y]
+}
+
+/// See `--correspondence` in the module's documentation.
+fn stripe_consistency(path: &str, stripe_width: f64, mask: Option<&Mask>) -> Result<(), String> {
+    let bytes = std::fs::read(path).map_err(|e| format!("cannot read {path}: {e}"))?;
+    let corr = stripelight::io::decode_pfm_rgb(&bytes).map_err(|e| format!("{path}: {e}"))?;
+    let (w, h) = corr.size();
+    if let Some(m) = mask.filter(|m| (m.width, m.height) != (w, h)) {
+        return Err(format!("{path} is {w}x{h}, the object's mask {}x{}", m.width, m.height));
+    }
+    // (terms, coordinate in stripes) of every object pixel the first family decoded.
+    let samples: Vec<([f64; 10], f64)> = (0..w * h)
+        .filter(|&i| mask.is_none_or(|m| m.inside[i]))
+        .filter_map(|i| {
+            let s = corr.pixels()[i][0];
+            s.is_finite().then(|| (cubic_terms((i % w) as f64, (i / w) as f64), s as f64 / stripe_width))
+        })
+        .collect();
+    let value = |c: &[f64; 10], t: &[f64; 10]| -> f64 { c.iter().zip(t).map(|(a, b)| a * b).sum() };
+    let mut coef = [0f64; 10];
+    // Fitted to every pixel, then to those within 3, 1 and half a stripe of the last fit.
+    for limit in [f64::INFINITY, 3.0, 1.0, 0.5] {
+        let (mut a, mut b) = ([[0f64; 10]; 10], [0f64; 10]);
+        for (t, s) in samples.iter().filter(|(t, s)| (s - value(&coef, t)).abs() <= limit) {
+            for i in 0..10 {
+                for j in 0..10 {
+                    a[i][j] += t[i] * t[j];
+                }
+                b[i] += t[i] * s;
+            }
+        }
+        coef = solve(a, b).ok_or_else(|| format!("{path}: too few decoded pixels ({}) for a cubic", samples.len()))?;
+    }
+    let share = |pick: &dyn Fn(f64) -> bool| 100.0 * samples.iter().filter(|(t, s)| pick((s - value(&coef, t)).abs())).count() as f64 / samples.len().max(1) as f64;
+    println!(
+        "stripe coordinates: {} pixels; against a cubic in the pixel: {:.2}% within a quarter of a stripe, {:.2}% within half, {:.2}% more than one stripe off",
+        samples.len(),
+        share(&|e| e <= 0.25),
+        share(&|e| e <= 0.5),
+        share(&|e| e > 1.0)
+    );
     Ok(())
 }

@@ -37,6 +37,9 @@
 #   zion linear, green-into-blue only  25.7 %, radius 95.4 mm, RMS 0.71 mm, 1.0 % > 2 mm
 #   tingck wall                         9.4 %, plane RMS 15.0 mm
 #   tingck hand                         0.98 %
+# and on 2026-12-06, after both-sides-clipped channels read as unchanged: tingck wall
+# 25.8 %, its stripe coordinates 96.6 % within a quarter of a stripe of a smooth field
+# and 0.06 % a stripe or more off; hand 3.0 % (docs/third-party.md).
 #
 # Needs: cargo, python3 (standard library only), git when MIRRORS holds git directories.
 set -euo pipefail
@@ -178,12 +181,12 @@ lp = open(f'{tdir}/src/loadParams.m').read()
 pw, ph = (int(re.search(name + r' = (\d+)', lp).group(1)) for name in ('pro_width', 'pro_height'))
 cw, ch = (int(re.search(name + r' = (\d+)', lp).group(1)) for name in ('cam_width', 'cam_height'))
 spec = write_spec(f'{tdir}/spec.json', pw, ph, palette, seq, float(width_px), pad - 0.5, (1, 1, 1))
-open(f'{tdir}/sizes', 'w').write(f'{cw}x{ch} {pw}x{ph}\n')
+open(f'{tdir}/sizes', 'w').write(f'{cw}x{ch} {pw}x{ph} {width_px}\n')
 print(f'tingck: {len(seq)} stripes of {width_px} px from u = {pad - 0.5} on {pw}x{ph}, window {spec["window"]}, white margins')
 EOF
 
 "$B" calib import --from "$Z/calib_opencv.yml" --out "$Z/calib.json" --projector-size 912x1140
-read -r CAM PROJ < "$T/sizes"
+read -r CAM PROJ STRIPE < "$T/sizes"
 "$B" calib import --from "$T/src/calibration.m" --out "$T/calib.json" --camera-size "$CAM" --projector-size "$PROJ"
 
 # The same patterns read back by `pattern import` from the projector images written above,
@@ -222,17 +225,22 @@ CONFIGS
 
 # tingck: the wall is a plane. Object = the striped part of the projection (corners found
 # on wall.jpg where the white margins end, inset 5 px), brightest channel within 30 px
-# above 60.
+# above 60. On the wall, the stripe coordinates are also scored against a smooth field
+# (a wrong identity is a whole stripe off it), which the rig's calibration does not
+# affect.
 POLY=301,300,2729,300,2575,1708,501,1708
 for img in wall hand; do
     for filter in loggrad direct; do
         tag=$img-$filter
         mkdir -p "$T/scan-$tag"
         "$B" scan --spec "$T/spec.json" --calib "$T/calib.json" --image "$T/src/sample_data/$img.jpg" \
-            --filter "$filter" --ply "$T/scan-$tag/cloud.ply" --debug "$T/scan-$tag/stages" 2> "$T/scan-$tag/log.txt"
+            --filter "$filter" --ply "$T/scan-$tag/cloud.ply" --correspondence "$T/scan-$tag/corr.pfm" \
+            --debug "$T/scan-$tag/stages" 2> "$T/scan-$tag/log.txt"
         echo "== tingck $tag: $(head -1 "$T/scan-$tag/log.txt")"
         # The hand has no known shape: its plane fit means nothing, read only its coverage.
+        stripes=()
+        [ "$img" = wall ] && stripes=(--correspondence "$T/scan-$tag/corr.pfm" --stripe-width "$STRIPE")
         "$FIT" "$T/scan-$tag/cloud.ply" --image "$T/src/sample_data/$img.jpg" --polygon "$POLY" \
-            --threshold 60 --spread 30 --shape plane --write-mask "$T/mask-$img.png" || true
+            --threshold 60 --spread 30 --shape plane --write-mask "$T/mask-$img.png" "${stripes[@]}" || true
     done
 done

@@ -134,6 +134,20 @@ pub fn encode_pfm_rgb(img: &Image<[f32; 3]>) -> Vec<u8> {
 
 /// Decode a grayscale PFM (`Pf`) of either byte order into top-to-bottom rows.
 pub fn decode_pfm(bytes: &[u8]) -> Result<Image<f32>> {
+    let (w, h, values) = decode_pfm_values(bytes, "Pf", 1)?;
+    Image::from_vec(w, h, values)
+}
+
+/// Decode a colour PFM (`PF`, such as the correspondences `encode_pfm_rgb` writes) of
+/// either byte order into top-to-bottom rows.
+pub fn decode_pfm_rgb(bytes: &[u8]) -> Result<Image<[f32; 3]>> {
+    let (w, h, values) = decode_pfm_values(bytes, "PF", 3)?;
+    Image::from_vec(w, h, values.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect())
+}
+
+/// The size and the values (interleaved, `channels` per pixel, top-to-bottom rows) of a
+/// PFM whose magic must be `magic`.
+fn decode_pfm_values(bytes: &[u8], magic: &str, channels: usize) -> Result<(usize, usize, Vec<f32>)> {
     let bad = |m: &str| Error::ImageDecode(format!("PFM: {m}"));
     // Header: three whitespace-separated tokens after the magic, then one whitespace byte.
     let mut pos = 0;
@@ -152,8 +166,9 @@ pub fn decode_pfm(bytes: &[u8]) -> Result<Image<f32>> {
         tokens.push(std::str::from_utf8(&bytes[start..pos]).map_err(|_| bad("header is not text"))?);
     }
     pos += 1; // the single whitespace byte that ends the header
-    if tokens[0] != "Pf" {
-        return Err(bad(&format!("magic is {:?}, expected \"Pf\" (grayscale)", tokens[0])));
+    if tokens[0] != magic {
+        let kind = if channels == 1 { "grayscale" } else { "colour" };
+        return Err(bad(&format!("magic is {:?}, expected {magic:?} ({kind})", tokens[0])));
     }
     let w: usize = tokens[1].parse().map_err(|_| bad("width is not a number"))?;
     let h: usize = tokens[2].parse().map_err(|_| bad("height is not a number"))?;
@@ -164,20 +179,23 @@ pub fn decode_pfm(bytes: &[u8]) -> Result<Image<f32>> {
     if scale == 0.0 || !scale.is_finite() {
         return Err(bad(&format!("scale {scale} is not a finite non-zero number")));
     }
-    let need = w.checked_mul(h).and_then(|n| n.checked_mul(4)).ok_or_else(|| bad("size overflows"))?;
+    let row = w.checked_mul(channels).ok_or_else(|| bad("size overflows"))?;
+    let need = row.checked_mul(h).and_then(|n| n.checked_mul(4)).ok_or_else(|| bad("size overflows"))?;
     let body = pos
         .checked_add(need)
         .and_then(|end| bytes.get(pos..end))
         .ok_or_else(|| bad("data is shorter than the header says"))?;
     let little = scale < 0.0;
-    let mut img = Image::new(w, h, 0f32);
-    for (i, c) in body.chunks_exact(4).enumerate() {
-        let b = [c[0], c[1], c[2], c[3]];
-        let x = if little { f32::from_le_bytes(b) } else { f32::from_be_bytes(b) };
-        let (u, v_file) = (i % w, i / w);
-        *img.get_mut(u, h - 1 - v_file) = x;
+    let mut values = vec![0f32; row * h];
+    // The file's rows run bottom to top.
+    for (file_row, data) in body.chunks_exact(row * 4).enumerate() {
+        let out = &mut values[(h - 1 - file_row) * row..][..row];
+        for (x, c) in out.iter_mut().zip(data.chunks_exact(4)) {
+            let b = [c[0], c[1], c[2], c[3]];
+            *x = if little { f32::from_le_bytes(b) } else { f32::from_be_bytes(b) };
+        }
     }
-    Ok(img)
+    Ok((w, h, values))
 }
 
 #[cfg(test)]
@@ -197,6 +215,22 @@ mod tests {
         let back = decode_pfm(&bytes).unwrap();
         assert_eq!(back.get(0, 0), 1.5);
         assert!(back.get(2, 1).is_nan());
+    }
+
+    #[test]
+    fn colour_pfm_round_trip_keeps_channels_and_row_order() {
+        let mut img = Image::new(3, 2, [0f32; 3]);
+        *img.get_mut(0, 0) = [1.5, -2.0, f32::NAN];
+        *img.get_mut(2, 1) = [7.0, 8.0, 9.0];
+        let back = decode_pfm_rgb(&encode_pfm_rgb(&img)).unwrap();
+        assert_eq!(back.size(), (3, 2));
+        assert_eq!(back.get(0, 0)[..2], [1.5, -2.0]);
+        assert!(back.get(0, 0)[2].is_nan());
+        assert_eq!(back.get(2, 1), [7.0, 8.0, 9.0]);
+        assert_eq!(back.get(1, 0), [0.0; 3]);
+        // The one decoder does not take the other's files.
+        assert!(decode_pfm(&encode_pfm_rgb(&img)).is_err());
+        assert!(decode_pfm_rgb(&encode_pfm(&Image::new(3, 2, 0f32))).is_err());
     }
 
     /// A fresh, empty directory for one test, removed by the test when it passes.
