@@ -244,3 +244,17 @@ for img in wall hand; do
             --threshold 60 --spread 30 --shape plane --write-mask "$T/mask-$img.png" "${stripes[@]}" || true
     done
 done
+
+# A diagnostic, not a measurement: the wall with a colour mixing set by hand from its own
+# stripes on row 1100 (linear light, less the black stripe's): the blue stripe shows
+# about 0.05 of its blue in red and 0.11 in green, the red stripe about 0.2 of its red
+# in blue; rows scaled to sum to 1. No frames of the primaries come with the captures,
+# so `stripelight crosstalk` cannot measure it.
+tag=wall-mixing-by-hand
+mkdir -p "$T/scan-$tag"
+"$B" scan --spec "$T/spec.json" --calib "$T/calib.json" --image "$T/src/sample_data/wall.jpg" \
+    --crosstalk 0.95,0,0.05,0,0.9,0.1,0.17,0,0.83 --ply "$T/scan-$tag/cloud.ply" \
+    --correspondence "$T/scan-$tag/corr.pfm" 2> "$T/scan-$tag/log.txt"
+echo "== tingck $tag: $(head -1 "$T/scan-$tag/log.txt")"
+"$FIT" "$T/scan-$tag/cloud.ply" --image "$T/src/sample_data/wall.jpg" --polygon "$POLY" --threshold 60 \
+    --spread 30 --shape plane --correspondence "$T/scan-$tag/corr.pfm" --stripe-width "$STRIPE" || true
