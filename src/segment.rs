@@ -110,6 +110,15 @@ fn lit_weight(m: f32) -> f32 {
 /// boundary's peak lies two pixels from this one's, and the test dropped whichever of
 /// the two was weaker: with 3-pixel stripes (eval --hard, narrow) a third of the lit
 /// pixels stayed empty and 2-3 % of the decoded ones were wrong.
+///
+/// Tried on 2026-12-06 and not kept: the test out to a quarter of the period (at
+/// least two pixels). A real 8-megapixel capture's boundaries (tingck's wall, stripes
+/// of about 18 pixels, clipped, JPEG) often show two peaks 2-3 pixels apart, each
+/// channel's step where its own clipping and chroma put it; the wider test took that
+/// wall from 28.2 to 31.9 % of the object (`scripts/real-data.sh`), its hand from 4.2
+/// to 3.7 %, and on the simulator's 25-pixel stripes it dropped real boundaries for
+/// texture edges beside them (`eval --hard --conditions wide`: colorchecker 0.52 ->
+/// 1.49 % outliers, paper-dye 3.57 -> 4.16 %, occluders 0.45 -> 0.58 %).
 pub const SHOULDER_MIN_PERIOD: f32 = 5.0;
 
 /// How far, in expected stripe periods, the dark side's other boundary may be for a
