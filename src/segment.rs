@@ -724,8 +724,11 @@ pub const PEAK_REACH: usize = 1;
 /// on six of them, no better than 2 (wood 0.84 -> 0.87 % outliers). On tingck's real
 /// wall (`scripts/real-data.sh`; stripes of about 18 pixels whose steps spread over
 /// 10-16) 28.2 -> 32.0 % of the object, the stripe coordinates 97.15 -> 98.06 % within
-/// a quarter stripe; its hand 4.2 -> 5.3 %. The 8-megapixel rows, whose lines are
-/// soft too, lost 0.1-0.4 point of coverage each (colorchecker/8mp 86.8 -> 86.4 %).
+/// a quarter stripe; its hand 4.2 -> 5.3 %. It costs where lobes stand close
+/// (Zion's sphere, [`PEAK_REACH`]): with `loggrad` 26.2 -> 26.1 % covered and 0.50 ->
+/// 0.77 % of the points over 2 mm from the fitted sphere; with `direct` 28.2 -> 25.4 %
+/// covered but 2.19 -> 0.89 % over 2 mm. The 8-megapixel rows, whose lines are soft
+/// too, lost 0.1-0.4 point of coverage each (colorchecker/8mp 86.8 -> 86.4 %).
 pub const SOFT_PEAK_REACH: usize = 2;
 
 /// Least expected stripe period (pixels) at which a soft line's strength is smoothed
