@@ -691,8 +691,8 @@ fn segment_line(input: &LineInput, line: usize, edges: &mut Vec<Edge>, sc: &mut 
 
 /// The edge strength of a line smoothed once by (1, 2, 1) / 4, in place (see
 /// [`SOFT_SMOOTH_MIN_PERIOD`]). A sample of strength 0 (unusable, or at either end)
-/// stays 0 and lends its neighbours their own value, so that no edge leaks into an
-/// unusable stretch or is pulled down beside one.
+/// stays 0, and a sample beside one takes its own value in its place, so that no edge
+/// leaks into an unusable stretch or is pulled down beside one.
 fn smooth_strength(strength: &mut [f32]) {
     let Some(&first) = strength.first() else { return };
     let mut before = first;
@@ -841,7 +841,8 @@ pub const CLIPPED_CLEAN_LEVEL: f32 = 0.1;
 /// exponential of the restored log, taken once per line by `segment_line`; `level`
 /// is the frame's linear light, which weighs the channels): the peak of the
 /// linear-light gradient (the sum over channels of its squares), climbed to from `s`
-/// at most [`PEAK_REACH`] samples ([`SOFT_PEAK_REACH`] on a soft line), then a Gaussian through it and its neighbours (a
+/// at most [`PEAK_REACH`] samples ([`SOFT_PEAK_REACH`] on a soft line), then a
+/// Gaussian through it and its neighbours (a
 /// parabola through their logs; a blurred step's gradient is a Gaussian, so this is
 /// exact for any blur, where a parabola through the values leans to the sample).
 /// The derivative is the central difference for a [`PeakShape::Sharp`] line, the
