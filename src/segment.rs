@@ -421,6 +421,16 @@ impl PeakShape {
         }
     }
 
+    /// How far the linear-light gradient's peak is sought from the log strength's:
+    /// [`SOFT_PEAK_REACH`] on a soft line, [`PEAK_REACH`] otherwise.
+    fn climb(self) -> usize {
+        if self == PeakShape::Soft {
+            SOFT_PEAK_REACH
+        } else {
+            PEAK_REACH
+        }
+    }
+
     /// What the derivative's smoothing adds to a peak's variance (pixels²): the
     /// 5-tap derivative is the central difference after (1, 2, 1) / 4, the 7-tap one
     /// the central difference after (6, 4, 8, 4, 6) / 28.
@@ -913,8 +923,7 @@ fn subpixel_peak(light: &[Vec<f32>; 3], level: &[Vec<f32>; 3], clipped: Option<&
     // log strength leans to the dark side, and it leaves out channels that are dark
     // on a side, which can move its peak a pixel towards the bright side (black
     // stripes).
-    let reach = if shape == PeakShape::Soft { SOFT_PEAK_REACH } else { PEAK_REACH } as isize;
-    let mut p = s;
+    let (mut p, reach) = (s, shape.climb() as isize);
     let (mut a, mut b, mut c) = (gradient(p - 1), gradient(p), if p + 1 < len { gradient(p + 1) } else { 0.0 });
     loop {
         let d = p as isize - s as isize;
