@@ -113,7 +113,7 @@ mod cli {
             #[arg(long)]
             hard: bool,
             /// With --hard: the conditions (default all: default, partial, clipped,
-            /// webcam, narrow, wide, soft, 8mp, world).
+            /// webcam, narrow, wide, soft, shoulder, 8mp, world).
             #[arg(long, value_delimiter = ',')]
             conditions: Vec<String>,
         },

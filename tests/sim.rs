@@ -243,6 +243,47 @@ fn white_plane_reads_the_analytic_value() {
 }
 
 both_targets! {
+fn a_highlight_shoulder_rolls_off_only_the_top_codes() {
+    // One pixel of the white plane under full white, as the exposure rises from dim to
+    // twice what the plain power law clips at: with a knee at 0.8 of the code range,
+    // the codes below it are the power law's, those above are lower, the code never
+    // falls as the light grows, and it reaches 255 only with the shoulder's headroom.
+    let calib = shrink_camera(Calibration::demo(), 2);
+    let white = Image::new(1024, 768, [255u8; 3]);
+    let scene = Scene::builtin("plane").unwrap();
+    let plain = SimConfig {
+        blur_sigma: 0.0,
+        noise_sigma: 0.0,
+        supersample: 1,
+        ..SimConfig::default()
+    };
+    let toned = SimConfig { highlight_knee: 0.8, ..plain.clone() };
+    let code = |cfg: &SimConfig, gain: f32| {
+        let cfg = SimConfig { exposure: cfg.exposure * gain, ..cfg.clone() };
+        sim::render(&scene, &calib, &white, &cfg).unwrap().image.get(160, 120)[1]
+    };
+    let (mut last, mut headroom, mut rolled) = (0u8, false, 0);
+    for k in 0..=36 {
+        let gain = 0.3 + 0.05 * k as f32;
+        let (a, b) = (code(&plain, gain), code(&toned, gain));
+        if a < 204 {
+            assert_eq!(a, b, "gain {gain}: below the knee the codes differ");
+        } else if (220..255).contains(&a) {
+            assert!(b < a, "gain {gain}: {b} is not below the power law's {a}");
+            rolled += 1;
+        }
+        assert!(b >= last, "gain {gain}: the code fell from {last} to {b}");
+        headroom |= a == 255 && b < 255;
+        last = b;
+    }
+    assert!(rolled >= 3, "only {rolled} exposures put the pixel on the shoulder");
+    assert!(headroom, "the shoulder never held light the power law clips");
+    assert_eq!(last, 255, "twice the power law's clip level did not clip");
+    assert!(SimConfig { highlight_knee: 0.3, ..plain }.validate().is_err());
+}
+}
+
+both_targets! {
 fn bad_input_is_refused() {
     let calib = Calibration::demo();
     let scene = Scene::builtin("plane").unwrap();

@@ -66,6 +66,18 @@ pub const EIGHT_MP_STRIPE_WIDTH: f64 = 7.5;
 /// σ ≈ 3 projector pixels 14 apart).
 pub const SOFT_PROJECTOR_BLUR: f64 = 3.0;
 
+/// Where the `shoulder` condition's tone curve leaves the power law, as a share of the
+/// code range ([`SimConfig::highlight_knee`]). Phone and many webcam pipelines roll the
+/// highlights off rather than clip them at the power law's end; 0.8 (code 204) puts
+/// the roll-off over the top fifth of the codes, holding 1.5 times the light (about
+/// 0.6 stops) a plain power law would clip. The value is assumed, not measured from a
+/// camera here: a moderate shoulder.
+/// At the default exposure little reaches the shoulder (coverage stayed within half a
+/// point of `default` on every scene, outliers within 0.01 point), so the condition
+/// raises the exposure as `clipped` does: a user who turns it up until the object
+/// looks bright puts the bright stripes on the shoulder.
+pub const SHOULDER_KNEE: f32 = 0.8;
+
 /// The scene on which the colour mixing is measured: the white plane stands in for
 /// the white card a user photographs.
 pub const CARD_SCENE: &str = "plane";
@@ -92,6 +104,9 @@ pub struct Condition {
     pub clip_fraction: Option<f32>,
     /// 4:2:0 chroma and JPEG at this quality, as a webcam delivers frames.
     pub webcam_jpeg: Option<u8>,
+    /// The camera's tone curve leaves the power law here ([`SimConfig::highlight_knee`];
+    /// 1, none).
+    pub highlight_knee: f32,
     /// The scenes the full report runs this condition on, when not all (the
     /// 8-megapixel rows take a minute each).
     pub report_scenes: Option<&'static [&'static str]>,
@@ -108,6 +123,7 @@ impl Condition {
         projector_blur: 0.0,
         clip_fraction: None,
         webcam_jpeg: None,
+        highlight_knee: 1.0,
         report_scenes: None,
     };
 }
@@ -155,6 +171,15 @@ pub const CONDITIONS: &[Condition] = &[
         summary: "a projector out of focus: its image blurred by a Gaussian of 3 projector pixels, \
                   so the stripes slope and have no flat top",
         projector_blur: SOFT_PROJECTOR_BLUR,
+        ..Condition::BASE
+    },
+    Condition {
+        name: "shoulder",
+        summary: "`clipped` with a camera whose tone curve compresses the highlights: codes above 80 % \
+                  of the range (204) roll off smoothly to full scale, reached at 1.5 times the light \
+                  a plain power law clips at",
+        clip_fraction: Some(CLIP_FRACTION),
+        highlight_knee: SHOULDER_KNEE,
         ..Condition::BASE
     },
     Condition {
@@ -214,6 +239,7 @@ impl Condition {
             projector_blur: self.projector_blur as f32,
             chroma_420: self.webcam_jpeg.is_some(),
             jpeg_quality: self.webcam_jpeg,
+            highlight_knee: self.highlight_knee,
             ..base
         }
     }

@@ -36,7 +36,9 @@
 //! `reference_distance` away. The rays' radiances are averaged (the pixel's area),
 //! then the camera mixes colours (`crosstalk`), defocus blurs the image (Gaussian),
 //! the gain `exposure` scales it, Gaussian noise is added, and the result is clipped to
-//! 0..=1, encoded as `x^(1 / camera_gamma)` and rounded to 8 bits.
+//! 0..=1, encoded as `x^(1 / camera_gamma)` and rounded to 8 bits (with
+//! `highlight_knee` below 1, the top of the code range follows a tone curve's shoulder
+//! instead, and the clipping is at the shoulder's end).
 //!
 //! The ground truth ([`Frame::depth`], [`Frame::projector`], [`Frame::lit`]) is
 //! computed for the single ray through each pixel centre; [`Frame::lit_share`] is the
@@ -147,6 +149,13 @@ pub struct SimConfig {
     pub exposure: f32,
     /// The camera encodes linear x as x^(1 / camera_gamma). Default 2.2.
     pub camera_gamma: f32,
+    /// Where the camera's tone curve leaves the power law, as a share of the code
+    /// range: above it a highlight shoulder rolls the codes off smoothly to full scale,
+    /// which the sensor then reaches at `(2 - knee)^camera_gamma` times the power law's
+    /// clip level instead of at it (see the sensor's `untone`). Phones' and many
+    /// webcams' pipelines have such a shoulder; a machine-vision camera has none.
+    /// Default 1: no shoulder.
+    pub highlight_knee: f32,
     /// Rays per camera pixel along each axis. Default 2 (2 x 2 rays).
     pub supersample: usize,
     /// Seed of the sensor noise.
@@ -176,6 +185,7 @@ impl Default for SimConfig {
             noise_sigma: 0.005,
             exposure: WHITE_PAPER_LEVEL / (WHITE_PAPER_ALBEDO * (1.0 + DEFAULT_AMBIENT)),
             camera_gamma: 2.2,
+            highlight_knee: 1.0,
             supersample: 2,
             seed: 0,
             reference_distance: 750.0,
@@ -214,6 +224,7 @@ impl SimConfig {
         check("projector_black", self.projector_black, 0.0..=1.0)?;
         check("projector_gamma", self.projector_gamma, 0.1..=10.0)?;
         check("camera_gamma", self.camera_gamma, 0.1..=10.0)?;
+        check("highlight_knee", self.highlight_knee, 0.5..=1.0)?;
         check("blur_sigma", self.blur_sigma, 0.0..=50.0)?;
         check("projector_blur", self.projector_blur, 0.0..=50.0)?;
         check("noise_sigma", self.noise_sigma, 0.0..=1.0)?;
@@ -452,7 +463,7 @@ impl View {
         if out.size() != (self.width, self.height) {
             *out = Image::new(self.width, self.height, [0; 3]);
         }
-        sensor::quantize(&scratch.linear, cfg.exposure, cfg.noise_sigma, cfg.camera_gamma, cfg.seed, out);
+        sensor::quantize(&scratch.linear, cfg.exposure, cfg.noise_sigma, cfg.camera_gamma, cfg.highlight_knee, cfg.seed, out);
         if cfg.chroma_420 {
             chroma_420(out);
         }
@@ -534,7 +545,7 @@ impl View {
         if !(level > 0.0) {
             return Err(Error::Scene("the bright-stripe pixels are black".into()));
         }
-        Ok(sensor::clip_level(cfg.camera_gamma) / level)
+        Ok(sensor::clip_level(cfg.camera_gamma, cfg.highlight_knee) / level)
     }
 
     /// Which pixels are bright-stripe pixels under `projector_image` (see

@@ -10,9 +10,25 @@ use crate::raster::{from_ycbcr, to_ycbcr, Image, Rgb};
 pub const CLIPPED: u8 = 255;
 
 /// The linear signal (after gain) from which a channel reads [`CLIPPED`]: the
-/// rounding bound of the top code, `(254.5 / 255)^gamma`.
-pub(crate) fn clip_level(gamma: f32) -> f32 {
-    ((CLIPPED as f32 - 0.5) / 255.0).powf(gamma)
+/// rounding bound of the top code, `untone(254.5 / 255)^gamma` (see [`untone`]).
+pub(crate) fn clip_level(gamma: f32, knee: f32) -> f32 {
+    untone((CLIPPED as f32 - 0.5) / 255.0, knee).powf(gamma)
+}
+
+/// The camera's tone curve inverted: the power-law value `v` (`x^(1/gamma)` of the
+/// linear signal `x`) that the encoded value `e` (0..=1) comes from. Up to `knee` the
+/// curve is the power law itself (`e = v`). Above it, a highlight shoulder: `e = knee +
+/// (1 - knee) (1 - (1 - u)²)` with `u = (v - knee) / (2 (1 - knee))`, whose slope is 1
+/// at the knee and 0 at `v = 2 - knee`, where the code range ends. So the curve is
+/// smooth, the top of the range holds the power law's `knee..2 - knee` squeezed into
+/// `knee..1`, and the sensor clips at `(2 - knee)^gamma` instead of 1. A `knee` of 1 or
+/// more is the plain power law.
+pub(crate) fn untone(e: f32, knee: f32) -> f32 {
+    if knee >= 1.0 || e <= knee {
+        return e;
+    }
+    let u = 1.0 - ((1.0 - e.min(1.0)) / (1.0 - knee)).sqrt();
+    knee + 2.0 * (1.0 - knee) * u
 }
 
 /// A small, seedable, platform-independent generator (SplitMix64, Steele, Lea and
@@ -119,40 +135,51 @@ pub(crate) fn gaussian_blur(img: &mut Image<Rgb>, sigma: f32, scratch: &mut Vec<
 /// Steps of the quantizer's look-up from linear value to the first candidate code.
 const QUANTIZE_BUCKETS: usize = 4096;
 
-/// Gain, additive Gaussian noise (in units of full scale), clipping to 0..1, encoding
-/// `x^(1/gamma)` and rounding to 8 bits.
+/// Gain, additive Gaussian noise (in units of full scale), clipping, encoding
+/// `x^(1/gamma)` through the tone curve of `knee` ([`untone`]; 1 for none) and rounding
+/// to 8 bits.
 pub(crate) fn quantize(
     linear: &Image<Rgb>,
     exposure: f32,
     noise_sigma: f32,
     gamma: f32,
+    knee: f32,
     seed: u64,
     out: &mut Image<[u8; 3]>,
 ) {
-    // Code c covers linear values from ((c - 0.5)/255)^gamma to ((c + 0.5)/255)^gamma;
-    // the code of x is the number of upper bounds below x (exact rounding, no powf).
+    // Code c covers the linear values whose encoding is from (c - 0.5)/255 to
+    // (c + 0.5)/255; the code of x is the number of upper bounds below x (exact
+    // rounding, no powf).
     let mut bounds = [0f32; 255];
     for (c, b) in bounds.iter_mut().enumerate() {
-        *b = ((c as f32 + 0.5) / 255.0).powf(gamma);
+        *b = untone((c as f32 + 0.5) / 255.0, knee).powf(gamma);
     }
-    // The count of bounds below each of QUANTIZE_BUCKETS equal steps of 0..1, so that
-    // a value's count starts from its step's and walks the few bounds inside the step
-    // (the same codes as a search over all bounds, in a fraction of the time).
+    // The linear signal at which the code range ends (1 without a shoulder).
+    let full = untone(1.0, knee).powf(gamma);
+    // The count of bounds below each of QUANTIZE_BUCKETS equal steps of 0..full, so
+    // that a value's count starts from its step's and walks the few bounds inside the
+    // step (the same codes as a search over all bounds, in a fraction of the time).
     let mut start = [0u8; QUANTIZE_BUCKETS + 1];
     for (k, s) in start.iter_mut().enumerate() {
-        let x = k as f32 / QUANTIZE_BUCKETS as f32;
+        let x = full * (k as f32 / QUANTIZE_BUCKETS as f32);
         *s = bounds.partition_point(|&b| b < x) as u8;
     }
+    let bucket = QUANTIZE_BUCKETS as f32 / full;
     let code = |x: f32| -> u8 {
         if !(x > 0.0) {
             // Negative, zero (no bound is below) or NaN (no bound compares below it).
             return 0;
         }
-        if x >= 1.0 {
+        if x >= full {
             return 255;
         }
-        // Truncation is the floor for 0 < x < 1.
-        let mut c = start[(x * QUANTIZE_BUCKETS as f32) as usize] as usize;
+        // Truncation is the floor for 0 < x < full. Without a shoulder `full` is 1 and
+        // the bucket's start is exact; with one, rounding can put the start a hair
+        // above `x`, so the walk also steps back over a bound that is not below it.
+        let mut c = start[((x * bucket) as usize).min(QUANTIZE_BUCKETS)] as usize;
+        while c > 0 && !(bounds[c - 1] < x) {
+            c -= 1;
+        }
         while c < bounds.len() && bounds[c] < x {
             c += 1;
         }
