@@ -91,6 +91,10 @@ mod cli {
             /// row · projector primaries); `sim` for the simulator's default.
             #[arg(long)]
             crosstalk: Option<String>,
+            /// The camera's measured response (JSON from `stripelight response`): the
+            /// frame's codes are read through it instead of --camera-gamma's power law.
+            #[arg(long)]
+            response: Option<PathBuf>,
         },
         /// Render built-in scenes, scan them and print the accuracy table (Markdown).
         Eval {
@@ -135,6 +139,34 @@ mod cli {
             /// The camera's encoding gamma.
             #[arg(long, default_value_t = 2.2)]
             camera_gamma: f32,
+            /// The camera's measured response (JSON from `stripelight response`), read
+            /// instead of --camera-gamma's power law.
+            #[arg(long)]
+            response: Option<PathBuf>,
+        },
+        /// Measure the camera's response (for `scan --response`; a tone curve's
+        /// highlight shoulder) from frames of a white card under the projector's full
+        /// white, a grey level and black, all at the exposure the scans will use, with
+        /// the card's brightest part just clipping under white. Prints JSON.
+        Response {
+            /// Frame under full white.
+            #[arg(long)]
+            white: PathBuf,
+            /// Frame under the grey level --grey-level.
+            #[arg(long)]
+            grey: PathBuf,
+            /// Frame under black.
+            #[arg(long)]
+            black: PathBuf,
+            /// The projector's grey level of the --grey frame (8-bit).
+            #[arg(long, default_value_t = stripelight::calib::response::DEFAULT_GREY_LEVEL)]
+            grey_level: u8,
+            /// The camera's encoding gamma, which the codes up to 200 follow.
+            #[arg(long, default_value_t = 2.2)]
+            camera_gamma: f32,
+            /// The projector's gamma (the pattern spec's `encoding_gamma`).
+            #[arg(long, default_value_t = 2.2)]
+            projector_gamma: f32,
         },
         /// Write a calibration file: the demo rig (--default, --distorted), or one
         /// imported from another tool (`calib import`).
@@ -281,6 +313,11 @@ mod cli {
         Calibration::from_json(&read_text(path)?).map_err(|e| prefix(path, e))
     }
 
+    /// Read and validate a camera response file (`stripelight response`).
+    pub fn load_response(path: &Path) -> Result<stripelight::calib::CameraResponse> {
+        stripelight::calib::CameraResponse::from_json(&read_text(path)?).map_err(|e| prefix(path, e))
+    }
+
     /// Read and validate a pattern spec file.
     pub fn load_spec(path: &Path) -> Result<PatternSpec> {
         PatternSpec::from_json(&read_text(path)?).map_err(|e| prefix(path, e))
@@ -327,7 +364,7 @@ mod cli {
                 );
                 Ok(())
             }
-            Command::Scan { spec, calib, image, filter, camera_gamma, depth, correspondence, ply, ascii, debug, crosstalk } => {
+            Command::Scan { spec, calib, image, filter, camera_gamma, depth, correspondence, ply, ascii, debug, crosstalk, response } => {
                 let spec = load_spec(&spec)?;
                 let calib = load_calib(&calib)?;
                 let filter: FilterMode = filter.parse()?;
@@ -337,7 +374,8 @@ mod cli {
                     Some("sim") => stripelight::sim::SimConfig::default().crosstalk,
                     Some(text) => stripelight::calib::parse_crosstalk(text)?,
                 };
-                let config = ScanConfig { filter, camera_gamma, crosstalk, ..ScanConfig::default() };
+                let response = response.as_deref().map(load_response).transpose()?;
+                let config = ScanConfig { filter, camera_gamma, crosstalk, response, ..ScanConfig::default() };
                 let mut scanner = Scanner::new(spec, calib, config)?;
                 let result = scanner.scan(&frame).map_err(|e| prefix(&image, e))?;
                 let stats = &result.stats;
@@ -413,12 +451,21 @@ mod cli {
                 print!("{}", stripelight::eval::markdown(&rows));
                 Ok(())
             }
-            Command::Crosstalk { red, green, blue, black, camera_gamma } => {
+            Command::Crosstalk { red, green, blue, black, camera_gamma, response } => {
                 let (r, g, b, k) = (io::read_rgb8(&red)?, io::read_rgb8(&green)?, io::read_rgb8(&blue)?, io::read_rgb8(&black)?);
-                let m = stripelight::calib::estimate_crosstalk([&r, &g, &b], &k, camera_gamma)?;
+                let m = match response.as_deref().map(load_response).transpose()? {
+                    Some(response) => stripelight::calib::estimate_crosstalk_through([&r, &g, &b], &k, &response.linear_f64())?,
+                    None => stripelight::calib::estimate_crosstalk([&r, &g, &b], &k, camera_gamma)?,
+                };
                 // The form `scan --crosstalk` takes.
                 let values: Vec<String> = m.iter().flatten().map(|v| format!("{v:.4}")).collect();
                 println!("{}", values.join(","));
+                Ok(())
+            }
+            Command::Response { white, grey, black, grey_level, camera_gamma, projector_gamma } => {
+                let (w, g, k) = (io::read_rgb8(&white)?, io::read_rgb8(&grey)?, io::read_rgb8(&black)?);
+                let response = stripelight::calib::estimate_response(&w, &g, &k, grey_level, camera_gamma, projector_gamma)?;
+                println!("{}", response.to_json());
                 Ok(())
             }
             Command::Calib { action: Some(CalibAction::Import { from, out, camera_size, projector_size, unit_scale }), .. } => {

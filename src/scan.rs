@@ -7,7 +7,7 @@
 //! [`crate::decode`] (stripe identities from neighbour windows), [`crate::triangulate`]
 //! (depth per family, ray-ray where two families meet) and [`crate::merge`].
 
-use crate::calib::{crosstalk_inverse, Calibration, Crosstalk, IDENTITY_CROSSTALK};
+use crate::calib::{crosstalk_inverse, CameraResponse, Calibration, Crosstalk, IDENTITY_CROSSTALK};
 use crate::cloud::Cloud;
 use crate::decode::Decoder;
 use crate::error::{Error, Result};
@@ -29,6 +29,10 @@ pub struct ScanConfig {
     /// The camera's encoding gamma: 8-bit value = 255 · linear^(1/gamma). 2.2 suits
     /// the simulator and most webcams.
     pub camera_gamma: f32,
+    /// The camera's measured response ([`crate::calib::estimate_response`]): when
+    /// given, codes are read as linear light through it instead of `camera_gamma`'s
+    /// power law (a tone curve's highlight shoulder undone).
+    pub response: Option<CameraResponse>,
     /// The camera's colour mixing: linear camera RGB = `crosstalk` · linear light of
     /// the projector's primaries (row = camera channel). Measured once per rig by
     /// projecting pure red, green and blue onto a white card; the identity when
@@ -48,6 +52,7 @@ impl Default for ScanConfig {
         ScanConfig {
             filter: FilterMode::LogGrad,
             camera_gamma: 2.2,
+            response: None,
             crosstalk: IDENTITY_CROSSTALK,
             #[cfg(not(target_arch = "wasm32"))]
             clock: Some(native_clock),
@@ -349,8 +354,10 @@ impl Scanner {
             })
             .collect();
         let n = spec.families.len();
-        let lut = gamma_lut(config.camera_gamma);
-        let luma_encoder = LumaEncoder::new(config.camera_gamma);
+        let (lut, luma_encoder) = match &config.response {
+            Some(r) => (*r.linear(), LumaEncoder::from_table(r.linear())),
+            None => (gamma_lut(config.camera_gamma), LumaEncoder::new(config.camera_gamma)),
+        };
         let decoders = predictions.iter().enumerate().map(|(k, p)| Decoder::new(&spec, k, p.increasing)).collect();
         let triangulator = Triangulator::new(&calib, &spec);
         let plane = || vec![f32::NAN; w * h];

@@ -1437,6 +1437,9 @@ pub const LUMA_SHARE: f32 = 0.65;
 pub struct LumaEncoder {
     /// Per step k, the level at its start and the difference to the next step's.
     table: Box<[[f32; 2]; Self::STEPS]>,
+    /// One over the light of the top code (1 for a power law): the table runs over
+    /// the root of the light as a share of it.
+    inv_top: f32,
 }
 
 impl LumaEncoder {
@@ -1451,13 +1454,39 @@ impl LumaEncoder {
             let (a, b) = (level(k), level(k + 1));
             *t = [a, b - a];
         }
-        LumaEncoder { table }
+        LumaEncoder { table, inv_top: 1.0 }
     }
 
-    /// The 8-bit level (not rounded) of linear light `v`, clamped to 0..=1.
+    /// The encoder of a camera whose 8-bit level `x` has linear light `linear[x]` (a
+    /// measured [`crate::calib::CameraResponse`]'s table: non-decreasing), the light
+    /// between two codes read as straight between them.
+    pub fn from_table(linear: &[f32; 256]) -> Self {
+        let top = linear[255].max(f32::MIN_POSITIVE);
+        // The (fractional) level of light v, by a walk along the table: the steps'
+        // lights increase with k, so the walk only moves forward.
+        let mut code = 0usize;
+        let mut level = |v: f32| {
+            while code < 254 && linear[code + 1] < v {
+                code += 1;
+            }
+            let (a, b) = (linear[code], linear[code + 1]);
+            let t = if b > a { ((v - a) / (b - a)).clamp(0.0, 1.0) } else { 0.0 };
+            code as f32 + t
+        };
+        let mut table = Box::new([[0.0; 2]; Self::STEPS]);
+        let mut start = level(0.0);
+        for (k, t) in table.iter_mut().enumerate() {
+            let end = level(top * ((k + 1) as f32 / Self::STEPS as f32).powi(2));
+            *t = [start, end - start];
+            start = end;
+        }
+        LumaEncoder { table, inv_top: 1.0 / top }
+    }
+
+    /// The 8-bit level (not rounded) of linear light `v`, clamped to the table's range.
     #[inline]
     pub fn encode(&self, v: f32) -> f32 {
-        let x = v.clamp(0.0, 1.0).sqrt() * Self::STEPS as f32;
+        let x = (v * self.inv_top).clamp(0.0, 1.0).sqrt() * Self::STEPS as f32;
         // Through i32: a cheaper conversion than to usize, and x is at most STEPS.
         let k = (x as i32 as usize).min(Self::STEPS - 1);
         let t = x - k as f32;
@@ -1474,7 +1503,7 @@ impl LumaEncoder {
     pub fn encode3(&self, v: [f32; 3]) -> [f32; 3] {
         use wide::{f32x4, CmpGt, CmpLt};
         let (zero, one) = (f32x4::splat(0.0), f32x4::splat(1.0));
-        let v = f32x4::new([v[0], v[1], v[2], 0.0]);
+        let v = f32x4::new([v[0], v[1], v[2], 0.0]) * f32x4::splat(self.inv_top);
         let v = v.cmp_lt(zero).blend(zero, v);
         let v = v.cmp_gt(one).blend(one, v);
         let x = v.sqrt() * f32x4::splat(Self::STEPS as f32);
@@ -2116,6 +2145,30 @@ mod tests {
                 (back - v as f32).abs() < 0.1,
                 "level {v} came back as {back}"
             );
+        }
+    }
+
+    #[test]
+    fn luma_encoder_of_a_measured_table_inverts_it_past_full_scale() {
+        // A table like a shoulder's: the power law to code 200, then half again as
+        // much light by the top code. Its encoder gives each code back, in one lane
+        // and in four, and the power law's table gives the power law's encoder.
+        let mut table = gamma_lut(2.2);
+        for c in 201..256 {
+            table[c] = table[200] + (c - 200) as f32 * (1.5 - table[200]) / 55.0;
+        }
+        let encoder = LumaEncoder::from_table(&table);
+        for c in 0..=255usize {
+            let back = encoder.encode(table[c]);
+            assert!((back - c as f32).abs() < 0.15, "level {c} came back as {back}");
+            let three = encoder.encode3([table[c], 0.0, 2.0]);
+            assert_eq!(three[0].to_bits(), back.to_bits());
+            assert_eq!(three[2], encoder.encode(2.0));
+        }
+        let (plain, from_plain) = (LumaEncoder::new(2.2), LumaEncoder::from_table(&gamma_lut(2.2)));
+        for k in 0..=1000 {
+            let v = k as f32 / 1000.0;
+            assert!((plain.encode(v) - from_plain.encode(v)).abs() < 0.15, "light {v}");
         }
     }
 

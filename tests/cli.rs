@@ -50,3 +50,45 @@ fn bad_input_is_one_line_and_a_non_zero_exit() {
     assert!(err.contains("0 points") && err.contains("nothing decoded"), "{err}");
     let _ = std::fs::remove_dir_all(Path::new(&dir));
 }
+
+#[test]
+fn a_measured_response_is_printed_and_read_back_by_scan() {
+    use stripelight::sim::{Scene, SimConfig, View};
+    let dir = std::env::temp_dir().join(format!("stripelight-cli-response-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let p = |name: &str| dir.join(name).to_string_lossy().into_owned();
+    // The white card through a shoulder, at the exposure that just clips it.
+    let calib = stripelight::Calibration::demo();
+    let cfg = SimConfig { highlight_knee: 0.8, ..SimConfig::default() };
+    let view = View::new(&Scene::builtin("plane").unwrap(), &calib, &cfg).unwrap();
+    let white = stripelight::Image::new(1024, 768, [255u8; 3]);
+    let cfg = SimConfig { exposure: view.exposure_for_clipping(&white, &cfg, 0.02).unwrap(), ..cfg };
+    for (name, level) in [("w.png", 255u8), ("g.png", 128), ("k.png", 0)] {
+        let mut shot = stripelight::Image::new(0, 0, [0u8; 3]);
+        let projector = stripelight::Image::new(1024, 768, [level; 3]);
+        view.photograph_into(&projector, &cfg, &mut stripelight::sim::Scratch::default(), &mut shot).unwrap();
+        std::fs::write(p(name), stripelight::io::encode_png(&shot).unwrap()).unwrap();
+    }
+    let out = Command::new(env!("CARGO_BIN_EXE_stripelight"))
+        .args(["response", "--white", &p("w.png"), "--grey", &p("g.png"), "--black", &p("k.png")])
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let json = String::from_utf8(out.stdout).unwrap();
+    let response = stripelight::calib::CameraResponse::from_json(&json).unwrap();
+    assert!(!response.is_power_law(2.2, 0.02), "no shoulder measured");
+    std::fs::write(p("r.json"), &json).unwrap();
+    let (spec, calib_file, frame) = (p("p.json"), p("c.json"), p("f.png"));
+    assert_eq!(run(&["pattern", "--directions", "2", "--out", &p("p.png"), "--spec", &spec]).0, 0);
+    assert_eq!(run(&["calib", "--default", "--out", &calib_file]).0, 0);
+    assert_eq!(run(&["render", "--scene", "plane", "--spec", &spec, "--calib", &calib_file, "--out", &frame]).0, 0);
+    let (code, err) = run(&["scan", "--spec", &spec, "--calib", &calib_file, "--image", &frame, "--response", &p("r.json")]);
+    assert_eq!(code, 0, "{err}");
+    assert!(err.contains("points"), "{err}");
+    let (code, err) = run(&["crosstalk", "--red", &p("w.png"), "--green", &p("w.png"), "--blue", &p("w.png"), "--black", &p("k.png"), "--response", &p("r.json")]);
+    assert_eq!(code, 0, "{err}");
+    std::fs::write(p("bad.json"), json.replacen('[', "[1,", 1)).unwrap();
+    fails_with(&["scan", "--spec", &spec, "--calib", &calib_file, "--image", &frame, "--response", &p("bad.json")], "camera response");
+    fails_with(&["response", "--white", &p("w.png"), "--grey", &p("k.png"), "--black", &p("k.png")], "grey frame");
+    let _ = std::fs::remove_dir_all(Path::new(&dir));
+}

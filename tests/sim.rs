@@ -284,6 +284,28 @@ fn a_highlight_shoulder_rolls_off_only_the_top_codes() {
 }
 
 both_targets! {
+fn a_white_card_under_white_grey_and_black_measures_the_shoulder() {
+    // The card photographed as `stripelight response` asks (the evaluation's own
+    // procedure): through a shoulder, each code above the trusted ones comes within 3 %
+    // of the light the simulator's curve puts behind it; through the plain power law,
+    // the measurement is the power law within 2 %.
+    let calib = shrink_camera(Calibration::demo(), 2);
+    let toned = SimConfig { highlight_knee: 0.8, ..SimConfig::default() };
+    let measured = stripelight::eval::hard::measured_response(&calib, &toned).unwrap();
+    let table = measured.linear();
+    for code in stripelight::calib::response::TRUSTED_CODE as usize + 1..255 {
+        let e = code as f32 / 255.0;
+        let v = 0.8 + 0.4 * (1.0 - ((1.0 - e) / 0.2).sqrt());
+        let truth = v.powf(2.2);
+        assert!((table[code] / truth - 1.0).abs() < 0.03, "code {code}: measured {}, the curve's {truth}", table[code]);
+    }
+    assert!(!measured.is_power_law(2.2, 0.02));
+    let plain = stripelight::eval::hard::measured_response(&calib, &SimConfig::default()).unwrap();
+    assert!(plain.is_power_law(2.2, 0.02), "{:?}", &plain.linear()[200..]);
+}
+}
+
+both_targets! {
 fn bad_input_is_refused() {
     let calib = Calibration::demo();
     let scene = Scene::builtin("plane").unwrap();

@@ -10,6 +10,9 @@
 //! [`import`] reads calibrations made by other tools (OpenCV, Bouguet's toolbox).
 
 pub mod import;
+pub mod response;
+
+pub use response::{estimate_response, CameraResponse};
 
 use crate::error::{Error, Result};
 use glam::{DMat3, DVec2, DVec3};
@@ -589,11 +592,23 @@ pub fn estimate_crosstalk(
     black: &crate::raster::Image<[u8; 3]>,
     gamma: f32,
 ) -> Result<Crosstalk> {
+    let linear: [f64; 256] = std::array::from_fn(|v| (v as f64 / 255.0).powf(gamma as f64));
+    estimate_crosstalk_through(primaries, black, &linear)
+}
+
+/// [`estimate_crosstalk`] with the camera's codes read through `linear` (light per
+/// 8-bit code: a power law's, or a measured [`CameraResponse`]'s, see
+/// [`CameraResponse::linear_f64`]).
+pub fn estimate_crosstalk_through(
+    primaries: [&crate::raster::Image<[u8; 3]>; 3],
+    black: &crate::raster::Image<[u8; 3]>,
+    linear: &[f64; 256],
+) -> Result<Crosstalk> {
     let size = black.size();
     for p in primaries {
         p.expect_size(size.0, size.1)?;
     }
-    let lin = |v: u8| (v as f64 / 255.0).powf(gamma as f64);
+    let lin = |v: u8| linear[v as usize];
     let mut sum = [[0f64; 3]; 3];
     let mut count = 0usize;
     for i in 0..size.0 * size.1 {

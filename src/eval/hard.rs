@@ -10,7 +10,8 @@
 
 use super::graycode::{gray_reference, GrayReference};
 use super::{evaluate_with, measure, Metrics, Row};
-use crate::calib::{estimate_crosstalk, Calibration, Crosstalk};
+use crate::calib::response::DEFAULT_GREY_LEVEL;
+use crate::calib::{estimate_crosstalk_through, estimate_response, CameraResponse, Calibration, Crosstalk};
 use crate::error::{Error, Result};
 use crate::filter::FilterMode;
 use crate::pattern::{PatternSpec, DEFAULT_STRIPE_WIDTH};
@@ -245,11 +246,42 @@ impl Condition {
     }
 }
 
+/// Share of the white card's pixels that clip under full white in the frames
+/// [`measured_response`] takes: the user raises the exposure until the card's
+/// brightest part just clips, so that the white frame reaches the top of the codes.
+pub const RESPONSE_CLIP_FRACTION: f32 = 0.02;
+
+/// How far (a share of each code's light) a measured response may stray from the power
+/// law for the evaluation's scanner to keep the power law: the measurement's own noise
+/// on a camera without a shoulder, which would otherwise move every row a little.
+pub const POWER_LAW_TOLERANCE: f32 = 0.02;
+
+/// The camera's response as a user measures it: the white card ([`CARD_SCENE`]) under
+/// the projector's full white, grey [`DEFAULT_GREY_LEVEL`] and black, photographed with
+/// `cfg`'s camera at the exposure that clips [`RESPONSE_CLIP_FRACTION`] of the card
+/// under white, then [`estimate_response`].
+pub fn measured_response(calib: &Calibration, cfg: &SimConfig) -> Result<CameraResponse> {
+    let view = View::new(&Scene::builtin(CARD_SCENE)?, calib, cfg)?;
+    let (pw, ph) = (calib.projector.width as usize, calib.projector.height as usize);
+    let exposure = view.exposure_for_clipping(&Image::new(pw, ph, [255u8; 3]), cfg, RESPONSE_CLIP_FRACTION)?;
+    let cfg = SimConfig { exposure, ..cfg.clone() };
+    let mut scratch = Scratch::default();
+    let mut shots = Vec::with_capacity(3);
+    for (k, level) in [255u8, DEFAULT_GREY_LEVEL, 0].into_iter().enumerate() {
+        let mut frame = Image::new(0, 0, [0u8; 3]);
+        let shot = SimConfig { seed: cfg.seed.wrapping_add(0x5E_5901).wrapping_add(k as u64), ..cfg.clone() };
+        view.photograph_into(&Image::new(pw, ph, [level; 3]), &shot, &mut scratch, &mut frame)?;
+        shots.push(frame);
+    }
+    estimate_response(&shots[0], &shots[1], &shots[2], DEFAULT_GREY_LEVEL, cfg.camera_gamma, cfg.projector_gamma)
+}
+
 /// The colour mixing as a user measures it: the white card ([`CARD_SCENE`]) under the
 /// projector's full red, green, blue and black, photographed with `cfg`'s camera at
 /// the default exposure (a user keeps the card below saturation, as `stripelight
-/// crosstalk` asks), then [`estimate_crosstalk`].
-pub fn measured_crosstalk(calib: &Calibration, cfg: &SimConfig) -> Result<Crosstalk> {
+/// crosstalk` asks), then [`crate::calib::estimate_crosstalk`], reading the codes
+/// through `response` where one was measured.
+pub fn measured_crosstalk(calib: &Calibration, cfg: &SimConfig, response: Option<&CameraResponse>) -> Result<Crosstalk> {
     let cfg = SimConfig { exposure: SimConfig::default().exposure, ..cfg.clone() };
     let view = View::new(&Scene::builtin(CARD_SCENE)?, calib, &cfg)?;
     let (pw, ph) = (calib.projector.width as usize, calib.projector.height as usize);
@@ -261,7 +293,11 @@ pub fn measured_crosstalk(calib: &Calibration, cfg: &SimConfig) -> Result<Crosst
         view.photograph_into(&Image::new(pw, ph, rgb), &shot, &mut scratch, &mut frame)?;
         shots.push(frame);
     }
-    estimate_crosstalk([&shots[0], &shots[1], &shots[2]], &shots[3], cfg.camera_gamma)
+    let linear = match response {
+        Some(r) => r.linear_f64(),
+        None => std::array::from_fn(|v| (v as f64 / 255.0).powf(cfg.camera_gamma as f64)),
+    };
+    estimate_crosstalk_through([&shots[0], &shots[1], &shots[2]], &shots[3], &linear)
 }
 
 /// Median width of the first family's stripes (vertical stripes) in camera pixels,
@@ -402,6 +438,8 @@ pub struct HardRun {
 pub struct HardEval {
     seed: u64,
     crosstalk: HashMap<&'static str, Crosstalk>,
+    /// Each condition's measured camera response, where it is not the power law.
+    responses: HashMap<&'static str, Option<CameraResponse>>,
     gray: HashMap<String, GrayReference>,
     /// Each condition's rig, pattern spec and pattern image.
     setups: HashMap<&'static str, (Calibration, PatternSpec, Image<[u8; 3]>)>,
@@ -410,7 +448,20 @@ pub struct HardEval {
 impl HardEval {
     /// A runner whose simulated frames use noise seed `seed`.
     pub fn new(seed: u64) -> Self {
-        HardEval { seed, crosstalk: HashMap::new(), gray: HashMap::new(), setups: HashMap::new() }
+        HardEval { seed, crosstalk: HashMap::new(), responses: HashMap::new(), gray: HashMap::new(), setups: HashMap::new() }
+    }
+
+    /// The camera response measured for `cond`'s camera ([`measured_response`]), or
+    /// None where it is the power law within [`POWER_LAW_TOLERANCE`].
+    pub fn response(&mut self, cond: &'static Condition) -> Result<Option<CameraResponse>> {
+        if let Some(r) = self.responses.get(cond.name) {
+            return Ok(r.clone());
+        }
+        let cfg = cond.camera(self.seed, 2.2);
+        let measured = measured_response(&cond.rig()?, &cfg)?;
+        let r = (!measured.is_power_law(cfg.camera_gamma, POWER_LAW_TOLERANCE)).then_some(measured);
+        self.responses.insert(cond.name, r.clone());
+        Ok(r)
     }
 
     /// The colour mixing measured for `cond`'s rig and camera.
@@ -418,8 +469,9 @@ impl HardEval {
         if let Some(m) = self.crosstalk.get(cond.name) {
             return Ok(*m);
         }
+        let response = self.response(cond)?;
         let calib = cond.rig()?;
-        let m = measured_crosstalk(&calib, &cond.camera(self.seed, 2.2))?;
+        let m = measured_crosstalk(&calib, &cond.camera(self.seed, 2.2), response.as_ref())?;
         self.crosstalk.insert(cond.name, m);
         Ok(m)
     }
@@ -461,8 +513,9 @@ impl HardEval {
     /// colour mixing measured for the condition.
     pub fn scanner(&mut self, cond: &'static Condition) -> Result<Scanner> {
         let crosstalk = self.crosstalk(cond)?;
+        let response = self.response(cond)?;
         let (calib, spec, _) = self.setup(cond)?;
-        let config = ScanConfig { filter: FilterMode::LogGrad, crosstalk, ..ScanConfig::default() };
+        let config = ScanConfig { filter: FilterMode::LogGrad, crosstalk, response, ..ScanConfig::default() };
         Scanner::new(spec.clone(), calib.clone(), config)
     }
 
@@ -497,10 +550,11 @@ impl HardEval {
         // exposure) the one-shot pattern, not on the stripes otherwise, nor on the
         // projector's blur (below).
         let key = format!(
-            "{scene_name}/{}/{}/{:?}/{}",
+            "{scene_name}/{}/{}/{:?}/{}/{}",
             cond.camera_scale,
             cond.partial_projector,
             cond.webcam_jpeg,
+            cond.highlight_knee,
             cond.clip_fraction.map_or(String::new(), |f| format!("{f}@{}", cond.stripe_width))
         );
         if !self.gray.contains_key(&key) {
@@ -678,7 +732,10 @@ run on six of the scenes). Every scan is what a user gets: the demo rig (`stripe
 of it), the two-direction pattern, `loggrad`, and the colour mixing *measured* from
 simulated frames of a white card under full red, green, blue and black
 (`calib::estimate_crosstalk`, as `stripelight crosstalk` does), not the simulator's
-known matrix. Beside every scan, a 42-frame Gray-code reference (columns and rows, each
+known matrix. The camera's response is measured too, from the card under full white,
+grey 128 and black at an exposure that just clips it (`calib::estimate_response`, as
+`stripelight response` does); the scanner reads codes through it where it is not the
+power law within 2 % (the `shoulder` rows), and through the power law elsewhere. Beside every scan, a 42-frame Gray-code reference (columns and rows, each
 bit and its inverse, white and black; `src/eval/graycode.rs`) photographed through the
 same simulated view and camera and triangulated with the same code: what is decodable
 at all.
