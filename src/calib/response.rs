@@ -39,6 +39,17 @@ const MIN_SAMPLES: usize = 20;
 /// pixel for the pixel to be used: below it the code's rounding is a large part of it.
 const MIN_GREY_LIGHT: f64 = 0.01;
 
+/// How far, as a factor either way, the grey frame's share of the white frame's light
+/// (both less the black frame's, where both are trusted codes) may be from what the
+/// grey level and the projector's gamma give: further, the frames were swapped or
+/// another grey was shown, and the table would be scaled wrong.
+const GREY_SHARE_FACTOR: f64 = 1.5;
+
+/// Least light (linear) the white frame must add to the black frame at a pixel for the
+/// grey frame's share there to count ([`GREY_SHARE_FACTOR`]): clearly in the
+/// projector's light, not beside its edge or in the room's light alone.
+const MIN_WHITE_LIGHT: f64 = 0.1;
+
 /// Linear light per 8-bit camera code, non-decreasing, the same for the three channels.
 #[derive(Clone, Debug, PartialEq)]
 pub struct CameraResponse {
@@ -144,6 +155,8 @@ pub fn estimate_response(
     // Per code above the trusted ones, the light each pixel channel showing it implies.
     let mut samples: Vec<Vec<f32>> = vec![Vec::new(); 256];
     let mut trusted_grey = 0usize;
+    // Where the white frame's code is trusted too: the grey frame's share of its light.
+    let mut shares: Vec<f64> = Vec::new();
     for ((wp, gp), kp) in white.pixels().iter().zip(grey.pixels()).zip(black.pixels()) {
         for c in 0..3 {
             let (wc, gc, kc) = (wp[c], gp[c], kp[c]);
@@ -155,6 +168,9 @@ pub fn estimate_response(
                 continue;
             }
             trusted_grey += 1;
+            if wc <= TRUSTED_CODE && lin(wc) - lin(kc) >= MIN_WHITE_LIGHT {
+                shares.push(added / (lin(wc) - lin(kc)));
+            }
             // The top code is a bound (clipped), not a measurement.
             if wc > TRUSTED_CODE && wc < 255 {
                 samples[wc as usize].push((lin(kc) + added * scale) as f32);
@@ -166,6 +182,18 @@ pub fn estimate_response(
             "the grey frame shows no pixel lit clearly above the black frame and below code {TRUSTED_CODE}: \
              point the camera at a white card lit by the projector, with the grey frame not too bright"
         )));
+    }
+    if shares.len() >= MIN_SAMPLES {
+        let mid = shares.len() / 2;
+        let (_, &mut share, _) = shares.select_nth_unstable_by(mid, f64::total_cmp);
+        let expected = 1.0 / scale;
+        if !(share <= expected * GREY_SHARE_FACTOR && share >= expected / GREY_SHARE_FACTOR) {
+            return Err(Error::ColourFrames(format!(
+                "the grey frame holds {share:.2} of the white frame's light where the card is not bright, but grey \
+                 {grey_level} should give about {expected:.2}: were the frames swapped, or another grey shown \
+                 (give its level)?"
+            )));
+        }
     }
     let mut table = plain;
     let top = TRUSTED_CODE as usize;
@@ -237,9 +265,14 @@ mod tests {
             let e = estimate_response(&card(250), &card(grey), &card(10), 128, 2.2, 2.2).unwrap_err();
             assert!(e.to_string().contains("grey frame"), "{e}");
         }
+        // The white frame given as the grey one, and a grey frame of another level.
+        for (grey, level) in [(180, 128), (60, 200)] {
+            let e = estimate_response(&card(180), &card(grey), &card(10), level, 2.2, 2.2).unwrap_err();
+            assert!(e.to_string().contains("swapped"), "{e}");
+        }
         // A card whose white stays below the trusted codes measures nothing above
         // them: the power law.
-        let r = estimate_response(&card(180), &card(110), &card(10), 128, 2.2, 2.2).unwrap();
+        let r = estimate_response(&card(180), &card(90), &card(10), 128, 2.2, 2.2).unwrap();
         assert!(r.is_power_law(2.2, 0.0));
     }
 }
