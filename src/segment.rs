@@ -2029,7 +2029,6 @@ mod tests {
             p as f32 + offset
         };
         let (soft, broad) = (place(PeakShape::Soft), place(PeakShape::Broad));
-        eprintln!("log peak {s}, soft {soft:.2}, broad {broad:.2}, true {b}");
         assert!((soft - b).abs() + 0.75 < (broad - b).abs(), "soft at {soft}, broad at {broad}, true {b}");
     }
 

@@ -210,24 +210,17 @@ pub fn estimate_response(
     // measured ones interpolated, codes past the last measured one kept at its ratio to
     // the power law; never below the code before.
     let mut anchor = (top, table[top]);
-    let mut next = measured.iter().peekable();
+    for &(c, m) in &measured {
+        for code in anchor.0 + 1..=c {
+            let t = (code - anchor.0) as f32 / (c - anchor.0) as f32;
+            let value = if code == c { m } else { anchor.1 + t * (m - anchor.1) };
+            table[code] = value.max(table[code - 1]);
+        }
+        anchor = (c, table[c]);
+    }
     let ratio_past = measured.last().map_or(1.0, |&(c, m)| m / plain[c]);
-    for code in top + 1..256 {
-        while next.peek().is_some_and(|&&(c, _)| c < code) {
-            next.next();
-        }
-        let value = match next.peek() {
-            Some(&&(c, m)) if c == code => m,
-            Some(&&(c, m)) => {
-                let t = (code - anchor.0) as f32 / (c - anchor.0) as f32;
-                anchor.1 + t * (m - anchor.1)
-            }
-            None => plain[code] * ratio_past,
-        };
-        table[code] = value.max(table[code - 1]);
-        if next.peek().is_some_and(|&&(c, _)| c == code) {
-            anchor = (code, table[code]);
-        }
+    for code in anchor.0 + 1..256 {
+        table[code] = (plain[code] * ratio_past).max(table[code - 1]);
     }
     CameraResponse::from_table(&table)
 }
