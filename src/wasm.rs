@@ -12,7 +12,7 @@
 //! `u, v` and family bit masks. Each result array is copied exactly once, from the
 //! scanner's buffers into a new JavaScript typed array the worker then transfers.
 
-use crate::calib::{crosstalk_from_values, parse_crosstalk, ApproxRig, Calibration, IDENTITY_CROSSTALK};
+use crate::calib::{crosstalk_from_values, parse_crosstalk, ApproxRig, Calibration, CameraResponse, IDENTITY_CROSSTALK};
 use crate::cloud::{encode_ply, Cloud};
 use crate::error::Error;
 use crate::filter::FilterMode;
@@ -177,8 +177,11 @@ pub fn simulator_crosstalk() -> Vec<f32> {
 }
 
 /// The camera's colour mixing (9 numbers, row-major) from four RGBA frames of a white
-/// card under the projector's full red, green, blue and black.
+/// card under the projector's full red, green, blue and black, the codes read through
+/// the power law of `camera_gamma`, or through `response` (256 linear values, one per
+/// code) where one is given.
 #[wasm_bindgen(js_name = estimateCrosstalk)]
+#[allow(clippy::too_many_arguments)]
 pub fn estimate_crosstalk(
     red: &[u8],
     green: &[u8],
@@ -187,12 +190,70 @@ pub fn estimate_crosstalk(
     width: u32,
     height: u32,
     camera_gamma: f32,
+    response: Option<Vec<f32>>,
 ) -> Result<Vec<f32>, JsError> {
     let (w, h) = (width as usize, height as usize);
     let frame = |rgba: &[u8]| crate::raster::from_rgba8(w, h, rgba).map_err(js_error);
     let (r, g, b, k) = (frame(red)?, frame(green)?, frame(blue)?, frame(black)?);
-    let m = crate::calib::estimate_crosstalk([&r, &g, &b], &k, camera_gamma).map_err(js_error)?;
+    let m = match response {
+        None => crate::calib::estimate_crosstalk([&r, &g, &b], &k, camera_gamma),
+        Some(table) => {
+            let response = CameraResponse::from_table(&table).map_err(js_error)?;
+            crate::calib::estimate_crosstalk_through([&r, &g, &b], &k, &response.linear_f64())
+        }
+    }
+    .map_err(js_error)?;
     Ok(m.iter().flatten().copied().collect())
+}
+
+/// The camera's response (256 linear values, one per 8-bit code) from three RGBA frames
+/// of a white card at the scanning exposure, under the projector's full white, grey
+/// `grey_level` and black (`stripelight response`).
+#[wasm_bindgen(js_name = estimateResponse)]
+#[allow(clippy::too_many_arguments)]
+pub fn estimate_response(
+    white: &[u8],
+    grey: &[u8],
+    black: &[u8],
+    width: u32,
+    height: u32,
+    grey_level: u8,
+    camera_gamma: f32,
+    projector_gamma: f32,
+) -> Result<Vec<f32>, JsError> {
+    let (w, h) = (width as usize, height as usize);
+    let frame = |rgba: &[u8]| crate::raster::from_rgba8(w, h, rgba).map_err(js_error);
+    let (white, grey, black) = (frame(white)?, frame(grey)?, frame(black)?);
+    let response = crate::calib::estimate_response(&white, &grey, &black, grey_level, camera_gamma, projector_gamma)
+        .map_err(js_error)?;
+    Ok(response.linear().to_vec())
+}
+
+/// A camera response file as `stripelight response` writes it (`{"linear": [...]}`),
+/// checked; returns its 256 values.
+#[wasm_bindgen(js_name = parseResponse)]
+pub fn parse_response(text: &str) -> Result<Vec<f32>, JsError> {
+    Ok(CameraResponse::from_json(text).map_err(js_error)?.linear().to_vec())
+}
+
+/// A camera response (256 values) in its file form, checked.
+#[wasm_bindgen(js_name = responseJson)]
+pub fn response_json(table: &[f32]) -> Result<String, JsError> {
+    Ok(CameraResponse::from_table(table).map_err(js_error)?.to_json())
+}
+
+/// The largest share of a code's light by which a camera response (256 values) differs
+/// from the power law of `camera_gamma`.
+#[wasm_bindgen(js_name = responseDeparture)]
+pub fn response_departure(table: &[f32], camera_gamma: f32) -> Result<f32, JsError> {
+    Ok(CameraResponse::from_table(table).map_err(js_error)?.departure(camera_gamma))
+}
+
+/// The departure from the power law below which a measured response is read as the
+/// power law ([`crate::calib::response::POWER_LAW_TOLERANCE`]).
+#[wasm_bindgen(js_name = powerLawTolerance)]
+pub fn power_law_tolerance() -> f32 {
+    crate::calib::response::POWER_LAW_TOLERANCE
 }
 
 /// The 8-bit camera value from which a channel counts as clipped (the page's exposure
@@ -280,14 +341,17 @@ pub struct WasmScanner {
 impl WasmScanner {
     /// A scanner for a spec and calibration (JSON texts) with a filter
     /// (`direct`, `loggrad` or `loggrad-norot`) and the camera's colour mixing
-    /// (`crosstalk`: 9 numbers, row-major, row = camera channel; `undefined` for none).
-    /// Errors say which input is wrong.
+    /// (`crosstalk`: 9 numbers, row-major, row = camera channel; `undefined` for none)
+    /// and the camera's response (`response`: 256 linear values, one per 8-bit code, as
+    /// `estimateResponse` gives; `undefined` for the power law). Errors say which input
+    /// is wrong.
     #[wasm_bindgen(constructor)]
     pub fn new(
         spec_json: &str,
         calib_json: &str,
         filter: &str,
         crosstalk: Option<Vec<f32>>,
+        response: Option<Vec<f32>>,
     ) -> Result<WasmScanner, JsError> {
         let spec = PatternSpec::from_json(spec_json).map_err(js_error)?;
         let calib = Calibration::from_json(calib_json).map_err(js_error)?;
@@ -295,7 +359,14 @@ impl WasmScanner {
             None => IDENTITY_CROSSTALK,
             Some(m) => crosstalk_from_values(&m).map_err(js_error)?,
         };
-        let config = ScanConfig { filter: parse_filter(filter)?, crosstalk, clock: Some(performance_now), ..ScanConfig::default() };
+        let response = response.map(|table| CameraResponse::from_table(&table)).transpose().map_err(js_error)?;
+        let config = ScanConfig {
+            filter: parse_filter(filter)?,
+            crosstalk,
+            response,
+            clock: Some(performance_now),
+            ..ScanConfig::default()
+        };
         Ok(WasmScanner { inner: Scanner::new(spec, calib, config).map_err(js_error)? })
     }
 

@@ -5,10 +5,13 @@
 #![cfg(target_arch = "wasm32")]
 
 use js_sys::{Object, Reflect};
+use stripelight::sim::{Scene, Scratch, SimConfig, View};
 use stripelight::wasm::{
-    calibration_from_rig, decode_image, default_calibration, encode_pfm_js, encode_ply_js, generate_pattern, parse_calibration,
-    parse_crosstalk_js, render_scene, scene_names, simulator_crosstalk, WasmScanner,
+    calibration_from_rig, decode_image, default_calibration, encode_pfm_js, encode_ply_js, estimate_crosstalk,
+    estimate_response, generate_pattern, parse_calibration, parse_crosstalk_js, parse_response, power_law_tolerance,
+    render_scene, response_departure, response_json, scene_names, simulator_crosstalk, WasmScanner,
 };
+use stripelight::{Calibration, Image};
 use wasm_bindgen::{JsCast, JsError, JsValue};
 use wasm_bindgen_test::{wasm_bindgen_test, wasm_bindgen_test_configure};
 
@@ -56,7 +59,7 @@ fn a_simulated_frame_gives_a_plausible_cloud() {
     let (spec, calib, rgba, w, h) = sample();
     assert_eq!((w, h), (640, 480));
     assert_eq!(rgba.len(), 640 * 480 * 4);
-    let mut scanner = WasmScanner::new(&spec, &calib, "loggrad", None).map_err(message).unwrap();
+    let mut scanner = WasmScanner::new(&spec, &calib, "loggrad", None, None).map_err(message).unwrap();
     assert_eq!((scanner.width(), scanner.height()), (640, 480));
     // Before the first frame there is nothing to show.
     assert!(scanner.stages().is_empty());
@@ -65,7 +68,7 @@ fn a_simulated_frame_gives_a_plausible_cloud() {
     let n = field::<js_sys::Uint8Array>(&merged, "families").length() as usize;
     // Undoing the simulator's known colour mixing, as a colour calibration would, must
     // not lose points.
-    let mut unmixed = WasmScanner::new(&spec, &calib, "loggrad", Some(simulator_crosstalk())).map_err(message).unwrap();
+    let mut unmixed = WasmScanner::new(&spec, &calib, "loggrad", Some(simulator_crosstalk()), None).map_err(message).unwrap();
     let n_unmixed = points(&mut unmixed, &rgba, w, h);
     assert!(n_unmixed * 100 >= n * 95, "{n_unmixed} points with the crosstalk undone, {n} without");
     // The sphere and the wall behind it fill most of the frame: at least a fifth of the
@@ -120,7 +123,7 @@ fn a_stored_frame_decodes_and_scans() {
     let rgba = frame.rgba().to_vec();
     assert!(rgba.chunks(4).all(|p| p[3] == 255));
     let spec = generate_pattern(2, 1024, 768).map_err(message).unwrap();
-    let mut scanner = WasmScanner::new(&spec, &default_calibration(), "loggrad", None).map_err(message).unwrap();
+    let mut scanner = WasmScanner::new(&spec, &default_calibration(), "loggrad", None, None).map_err(message).unwrap();
     let loggrad = points(&mut scanner, &rgba, 640, 480);
     // A textured cylinder before a wall: a tenth of the pixels decode at the very least.
     assert!(loggrad > 640 * 480 / 10, "{loggrad} points");
@@ -132,24 +135,76 @@ fn a_stored_frame_decodes_and_scans() {
 fn scanner_creation_errors_say_what_is_wrong() {
     let calib = default_calibration();
     let spec = generate_pattern(2, 1024, 768).map_err(message).unwrap();
-    expect_error(WasmScanner::new("{", &calib, "loggrad", None), "pattern spec");
-    expect_error(WasmScanner::new(&spec, "{}", "loggrad", None), "calibration");
-    expect_error(WasmScanner::new(&spec, &calib, "sharpen", None), "filter: must be");
-    expect_error(WasmScanner::new(&spec, &calib, "loggrad", Some(vec![1.0; 4])), "crosstalk: needs 9 numbers");
-    expect_error(WasmScanner::new(&spec, &calib, "loggrad", Some(vec![0.0; 9])), "cannot be inverted");
+    expect_error(WasmScanner::new("{", &calib, "loggrad", None, None), "pattern spec");
+    expect_error(WasmScanner::new(&spec, "{}", "loggrad", None, None), "calibration");
+    expect_error(WasmScanner::new(&spec, &calib, "sharpen", None, None), "filter: must be");
+    expect_error(WasmScanner::new(&spec, &calib, "loggrad", Some(vec![1.0; 4]), None), "crosstalk: needs 9 numbers");
+    expect_error(WasmScanner::new(&spec, &calib, "loggrad", Some(vec![0.0; 9]), None), "cannot be inverted");
     expect_error(parse_crosstalk_js("1, 0, 0"), "crosstalk: needs 9 numbers");
     assert_eq!(parse_crosstalk_js("0.9,0.1,0; 0 1 0\n0 0 1").map_err(message).unwrap()[..3], [0.9, 0.1, 0.0]);
     let small = generate_pattern(2, 800, 600).map_err(message).unwrap();
-    let m = expect_error(WasmScanner::new(&small, &calib, "loggrad", None), "800");
+    let m = expect_error(WasmScanner::new(&small, &calib, "loggrad", None, None), "800");
     assert!(m.contains("1024"), "{m}");
     expect_error(generate_pattern(4, 1024, 768), "directions: must be 1, 2 or 3, got 4");
     expect_error(parse_calibration(&calib.replace("\"fx\": 760.0", "\"fx\": -760.0")), "camera.fx");
 }
 
+/// RGBA frames of the simulator's white card (the plane scene) under flat projector
+/// colours, at the exposure that clips 2 % of the card under white, as the page's
+/// guided colour calibration takes them.
+fn card_frames(cfg: &SimConfig, colours: &[[u8; 3]]) -> Vec<Vec<u8>> {
+    let calib = Calibration::demo();
+    let view = View::new(&Scene::builtin("plane").unwrap(), &calib, cfg).unwrap();
+    let flat = |rgb: [u8; 3]| Image::new(calib.projector.width as usize, calib.projector.height as usize, rgb);
+    let exposure = view.exposure_for_clipping(&flat([255; 3]), cfg, 0.02).unwrap();
+    let mut scratch = Scratch::default();
+    let mut frame = Image::new(0, 0, [0u8; 3]);
+    let mut frames = Vec::new();
+    for (k, &rgb) in colours.iter().enumerate() {
+        let shot = SimConfig { exposure, seed: 40 + k as u64, ..cfg.clone() };
+        view.photograph_into(&flat(rgb), &shot, &mut scratch, &mut frame).unwrap();
+        frames.push(stripelight::raster::to_rgba8(&frame));
+    }
+    frames
+}
+
+#[wasm_bindgen_test]
+fn the_colour_calibration_measures_a_shoulder_and_the_scanner_reads_through_it() {
+    // The six frames the page's guided colour calibration takes, through a camera whose
+    // tone curve rolls off the highlights: the response departs from the power law, the
+    // colour mixing read through it is the simulator's, and a scanner takes it.
+    let colours = [[255, 0, 0], [0, 255, 0], [0, 0, 255], [255; 3], [128; 3], [0; 3]];
+    let toned = SimConfig { highlight_knee: 0.8, ..SimConfig::default() };
+    let f = card_frames(&toned, &colours);
+    let table = estimate_response(&f[3], &f[4], &f[5], 640, 480, 128, 2.2, 2.2).map_err(message).unwrap();
+    assert_eq!(table.len(), 256);
+    let departure = response_departure(&table, 2.2).map_err(message).unwrap();
+    assert!(departure > 2.0 * power_law_tolerance(), "the shoulder departs by {departure}");
+    let mixing = estimate_crosstalk(&f[0], &f[1], &f[2], &f[5], 640, 480, 2.2, Some(table.clone())).map_err(message).unwrap();
+    for (m, truth) in mixing.iter().zip(simulator_crosstalk()) {
+        assert!((m - truth).abs() < 0.02, "measured {mixing:?}, the simulator's {:?}", simulator_crosstalk());
+    }
+    assert_eq!(parse_response(&response_json(&table).map_err(message).unwrap()).map_err(message).unwrap(), table);
+    let (spec, calib, rgba, w, h) = sample();
+    let mut scanner = WasmScanner::new(&spec, &calib, "loggrad", None, Some(table.clone())).map_err(message).unwrap();
+    assert!(points(&mut scanner, &rgba, w, h) > 640 * 480 / 5);
+    // Without a shoulder the measurement is the power law within its noise.
+    let plain = card_frames(&SimConfig::default(), &colours[3..]);
+    let table = estimate_response(&plain[0], &plain[1], &plain[2], 640, 480, 128, 2.2, 2.2).map_err(message).unwrap();
+    assert!(response_departure(&table, 2.2).map_err(message).unwrap() <= power_law_tolerance());
+    // Broken tables and swapped frames are refused by name.
+    let mut falling = table.clone();
+    falling[210] = 0.0;
+    expect_error(WasmScanner::new(&spec, &calib, "loggrad", None, Some(falling)), "camera response");
+    expect_error(WasmScanner::new(&spec, &calib, "loggrad", None, Some(vec![0.5; 7])), "256");
+    expect_error(parse_response("{\"gamma\": 2.2}"), "camera response");
+    expect_error(estimate_response(&plain[1], &plain[0], &plain[2], 640, 480, 128, 2.2, 2.2), "grey frame");
+}
+
 #[wasm_bindgen_test]
 fn bad_frames_are_errors_not_panics() {
     let (spec, calib, rgba, w, h) = sample();
-    let mut scanner = WasmScanner::new(&spec, &calib, "loggrad", None).map_err(message).unwrap();
+    let mut scanner = WasmScanner::new(&spec, &calib, "loggrad", None, None).map_err(message).unwrap();
     expect_error(scanner.scan(&rgba[..rgba.len() - 4], w, h), "cannot be a 640x480 image of 4 per pixel");
     expect_error(scanner.scan(&vec![0; 320 * 240 * 4], 320, 240), "image is 320x240 but 640x480 was expected");
     expect_error(scanner.scan(&[], 0, 0), "image is 0x0 but 640x480 was expected");

@@ -45,6 +45,9 @@ export const state = {
   crosstalk: 'none',
   simulatorCrosstalk: null, // 9 numbers, row-major (set once at start-up by app.js)
   measuredCrosstalk: null, // 9 numbers, row-major, typed by the user or measured
+  // The camera's response for camera and dropped frames: null for the power law, or
+  // {values: 256 linear values, departure, source: 'measured' | file name}.
+  response: null,
   // panel-results.js (the teaching view's filter choice)
   filter: 'loggrad',
   // panel-frames.js

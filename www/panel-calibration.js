@@ -2,7 +2,8 @@
 // approximate rig typed into the form, or a calibration JSON), drawn as a top view and
 // kept in step with the real devices' sizes; and the camera's colour mixing (none, the
 // simulator's, or measured: typed in, or measured with the projector and the camera on a
-// white card).
+// white card) and the camera's response (the power law, or measured on the same card
+// from its white, grey and black frames, or loaded from `stripelight response`'s file).
 
 import { $, state, bridge, busy, setStatus, showMessage, download } from './page.js';
 import { drawRig, rigOf, hfovDeg } from './rig.js';
@@ -13,6 +14,12 @@ import { projectorIsOpen, showOnProjector, sendPatternToProjector } from './proj
 /** How long each flat colour stays up before its frame is taken: the projector redraws
  * and the camera delivers a few frames in this time. */
 const COLOUR_SETTLE_MS = 800;
+
+/** The grey level the projector shows for the camera response's grey frame. */
+const RESPONSE_GREY_LEVEL = 128;
+
+/** Runs whenever the colour settings change (set by bindCalibrationPanel). */
+let mixingChanged = () => {};
 
 /** Use a calibration (JSON text; `source` is 'demo', 'rig' or a file name) from now on. */
 export async function setCalibration(json, source) {
@@ -109,9 +116,39 @@ export async function loadJsonFile(file) {
   } else if (parsed && typeof parsed === 'object' && 'camera' in parsed) {
     await setCalibration(text, file.name);
     showMessage(`Calibration ${file.name} loaded.`);
+  } else if (parsed && typeof parsed === 'object' && 'linear' in parsed) {
+    await loadResponse(text, file.name);
   } else {
-    throw new Error('neither a calibration (no "camera" field) nor a pattern spec (no "format": "stripelight-pattern")');
+    throw new Error(
+      'neither a calibration (no "camera" field), a pattern spec (no "format": "stripelight-pattern") ' +
+        'nor a camera response (no "linear" field)',
+    );
   }
+}
+
+/** Read a camera response file (`stripelight response`'s JSON) and use it. */
+async function loadResponse(text, name) {
+  const response = await bridge.request('parseResponse', { text });
+  setResponse({ ...response, source: name });
+  showMessage(`Camera response ${name} loaded: ${responseWords(state.response)}.`);
+  mixingChanged();
+}
+
+/** Words for a response: how far it departs from the power law. */
+function responseWords(response) {
+  if (!response) return 'the power law of gamma 2.2';
+  const pct = (100 * response.departure).toFixed(response.departure < 0.1 ? 1 : 0);
+  return `codes differ from the power law of gamma 2.2 by up to ${pct} % of their light`;
+}
+
+/** Use a camera response ({values, departure, source}, or null for the power law) for
+ * camera and dropped frames, and show it in the panel. */
+function setResponse(response) {
+  state.response = response;
+  const where = response?.source === 'measured' ? 'measured on the white card' : response ? `from ${response.source}` : '';
+  $('response-summary').textContent = `Camera response${where ? `, ${where}` : ''}: ${responseWords(response)}.`;
+  $('response-reset').disabled = !response;
+  $('response-download').disabled = !response;
 }
 
 /** Use a measured colour-mixing matrix (9 numbers, row-major) for camera and dropped frames. */
@@ -124,18 +161,30 @@ function useMeasuredCrosstalk(values) {
 }
 
 /**
- * The guided colour calibration: the projector shows full red, green, blue and black in
- * turn on a white card, the camera captures each, and the worker turns the four frames
- * into the camera's colour-mixing matrix, which this returns. The pattern comes back
- * afterwards.
+ * The guided colour calibration: the projector shows full red, green, blue, white, grey
+ * and black in turn on a white card, the camera captures each, and the worker turns the
+ * frames into the camera's response (white, grey and black: which light its top codes
+ * stand for) and its colour-mixing matrix (the primaries and black, read through that
+ * response). Resolves to {crosstalk, response}: response null where it is the power law
+ * within a measurement's noise. The pattern comes back afterwards. Nothing is taken
+ * when any part fails.
  */
-async function measureColourMixing(camera) {
+async function measureColour(camera) {
   if (!projectorIsOpen()) throw new Error('Open the projector window first, then point the camera at a white card it lights.');
   if (!camera.running) throw new Error('Start the camera first, pointed at a white card lit by the projector.');
   const { width, height } = state.patternPixels;
+  const grey = RESPONSE_GREY_LEVEL;
+  const shown = [
+    ['red', [255, 0, 0]],
+    ['green', [0, 255, 0]],
+    ['blue', [0, 0, 255]],
+    ['white', [255, 255, 255]],
+    [`grey ${grey}`, [grey, grey, grey]],
+    ['black', [0, 0, 0]],
+  ];
   const frames = [];
   try {
-    for (const [label, rgb] of [['red', [255, 0, 0]], ['green', [0, 255, 0]], ['blue', [0, 0, 255]], ['black', [0, 0, 0]]]) {
+    for (const [label, rgb] of shown) {
       const rgba = new Uint8ClampedArray(width * height * 4);
       for (let i = 0; i < rgba.length; i += 4) rgba.set([...rgb, 255], i);
       showOnProjector({ width, height, rgba, label: `colour calibration: ${label}` });
@@ -148,7 +197,19 @@ async function measureColourMixing(camera) {
     sendPatternToProjector();
   }
   const { width: w, height: h } = frames[0];
-  return bridge.request('estimateCrosstalk', { frames: frames.map((f) => f.rgba), width: w, height: h });
+  const [red, green, blue, white, greyFrame, black] = frames.map((f) => f.rgba);
+  const primaries = { width: w, height: h, frames: [red, green, blue, black] };
+  // Through the power law first: frames without the primaries are refused by name.
+  const plain = await bridge.request('estimateCrosstalk', primaries);
+  let response;
+  try {
+    response = await bridge.request('estimateResponse', { frames: [white, greyFrame, black], width: w, height: h, greyLevel: grey });
+  } catch (e) {
+    throw new Error(`${e.message} (the camera's exposure and white balance must stay fixed while the colours change)`);
+  }
+  if (response.powerLaw) return { crosstalk: plain, response: null, departure: response.departure };
+  const crosstalk = await bridge.request('estimateCrosstalk', { ...primaries, response: response.values });
+  return { crosstalk, response: { ...response, source: 'measured' } };
 }
 
 /**
@@ -156,6 +217,7 @@ async function measureColourMixing(camera) {
  * calibration); `onMixingChanged()` runs whenever the colour-mixing setting changes.
  */
 export function bindCalibrationPanel({ camera, onMixingChanged }) {
+  mixingChanged = onMixingChanged;
   const useMeasured = (values) => {
     useMeasuredCrosstalk(values);
     onMixingChanged();
@@ -195,10 +257,32 @@ export function bindCalibrationPanel({ camera, onMixingChanged }) {
       .catch((err) => showMessage(`Colour mixing: ${err.message}`, 'error'));
   };
   $('measure-mixing').onclick = () =>
-    measureColourMixing(camera)
-      .then((values) => {
-        useMeasured(values);
-        setStatus('colour mixing measured');
+    measureColour(camera)
+      .then(({ crosstalk, response, departure }) => {
+        setResponse(response);
+        useMeasured(crosstalk);
+        const within = `the power law of gamma 2.2 within ${(100 * departure).toFixed(1)} %, so the power law is kept`;
+        showMessage(`Camera response measured: ${response ? responseWords(response) : within}.`);
+        setStatus('colour mixing and camera response measured');
       })
+      .catch((e) => showMessage(e.message, 'error'));
+  $('response-file').onchange = (e) => {
+    const file = e.target.files[0];
+    e.target.value = '';
+    if (!file) return;
+    file
+      .text()
+      .then((text) => loadResponse(text, file.name))
+      .catch((err) => showMessage(`${file.name}: ${err.message}`, 'error'));
+  };
+  $('response-reset').onclick = () => {
+    setResponse(null);
+    showMessage('Camera frames are read through the power law of gamma 2.2 again.');
+    onMixingChanged();
+  };
+  $('response-download').onclick = () =>
+    bridge
+      .request('responseJson', { values: state.response.values })
+      .then((json) => download(json, 'stripelight-response.json', 'application/json'))
       .catch((e) => showMessage(e.message, 'error'));
 }

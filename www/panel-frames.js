@@ -4,7 +4,7 @@
 // Every 'scan' request to the workers starts here.
 //
 // A frame entry: {name, kind: 'sample' | 'camera' | 'file' | 'live', frame: {width,
-// height, rgba}, result, error, item: its <li>, and the filter and crosstalk it was
+// height, rgba}, result, error, item: its <li>, and the filter and colour settings it was
 // decoded with}.
 
 import { $, state, bridge, busy, setStatus, showMessage, drawImage } from './page.js';
@@ -82,7 +82,7 @@ export async function scanEntry(entry, { keepView = false } = {}) {
   try {
     entry.result = await scanWith(settings, frame, want, state.continuous ? undefined : setStatus);
     entry.filter = state.filter;
-    entry.crosstalk = crosstalkFor(entry.kind);
+    entry.colour = colourFor(entry.kind);
   } catch (e) {
     entry.error = `${entry.name}: ${e.message}`;
     entry.result = null;
@@ -136,7 +136,7 @@ async function scanWith(settings, frame, want, onProgress) {
 /** Put a continuous-scanning result in the list's live entry and show it; returns the entry. */
 export function showLiveResult(frame, result, { keepView }) {
   const live = addFrame(LIVE_NAME, frame, 'live');
-  Object.assign(live, { result, filter: state.filter, crosstalk: crosstalkFor('live'), error: '' });
+  Object.assign(live, { result, filter: state.filter, colour: colourFor('live'), error: '' });
   renderFrameItem(live);
   showEntry(live, { keepView });
   return live;
@@ -157,7 +157,7 @@ function showEntry(entry, { keepView = false, rescan = false } = {}) {
   showInput(entry.frame, entry.name);
   const stale =
     entry.result &&
-    (entry.filter !== state.filter || entry.crosstalk !== crosstalkFor(entry.kind) || !entry.result.stages);
+    (entry.filter !== state.filter || !sameColour(entry.colour, colourFor(entry.kind)) || !entry.result.stages);
   if (rescan || (stale && !state.continuous)) {
     busy(`decoding ${entry.name}`, () => scanEntry(entry, { keepView }))
       .then(() => setStatus(summary(entry)))
@@ -183,21 +183,33 @@ export function summary(entry) {
   const r = entry.result;
   if (!r) return entry.error;
   const fam = r.stats.decoded.map((n, k) => `family ${k + 1}: ${n.toLocaleString('en')}`).join(' · ');
-  const mixing = entry.crosstalk === 'simulator' ? ' · simulator’s colour mixing undone' : '';
+  const mixing = entry.colour?.mode === 'simulator' ? ' · simulator’s colour mixing undone' : '';
+  const response = entry.colour?.response ? ' · measured camera response' : '';
   const threads = r.threads > 1 ? ` on ${r.threads} threads` : '';
-  return `${entry.name}: ${r.merged.families.length.toLocaleString('en')} points (${fam}) · ${r.stats.filter}${mixing} · ${r.ms.toFixed(0)} ms${threads}`;
+  return `${entry.name}: ${r.merged.families.length.toLocaleString('en')} points (${fam}) · ${r.stats.filter}${mixing}${response} · ${r.ms.toFixed(0)} ms${threads}`;
 }
 
-/** The crosstalk setting for a kind of frame: simulated ones use the simulator's. */
-function crosstalkFor(kind) {
-  return kind === 'sample' ? 'simulator' : state.crosstalk;
+/**
+ * The colour settings for a kind of frame: the crosstalk mode, its 9 numbers (null for
+ * none) and the camera response (256 numbers, null for the power law). Simulated frames
+ * use the simulator's camera, whose mixing is known and whose codes follow the power law.
+ */
+function colourFor(kind) {
+  const mode = kind === 'sample' ? 'simulator' : state.crosstalk;
+  const crosstalk = mode === 'simulator' ? state.simulatorCrosstalk : mode === 'measured' ? state.measuredCrosstalk : null;
+  const response = kind === 'sample' ? null : state.response?.values ?? null;
+  return { mode, crosstalk, response };
+}
+
+/** Whether two colour settings decode alike (the arrays are replaced, never changed in place). */
+function sameColour(a, b) {
+  return Boolean(a) && a.mode === b.mode && a.crosstalk === b.crosstalk && a.response === b.response;
 }
 
 /** What a scan request needs besides the pixels. */
 function scanSettings(kind) {
-  const mode = crosstalkFor(kind);
-  const crosstalk = mode === 'simulator' ? state.simulatorCrosstalk : mode === 'measured' ? state.measuredCrosstalk : null;
-  return { specJson: state.specJson, calibJson: state.calibJson, filter: state.filter, crosstalk };
+  const { crosstalk, response } = colourFor(kind);
+  return { specJson: state.specJson, calibJson: state.calibJson, filter: state.filter, crosstalk, response };
 }
 
 /** Render a simulated scene with the current pattern and calibration, and scan it. */

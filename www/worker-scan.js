@@ -27,11 +27,11 @@ export const OPTIONAL_RESULTS = ['families', 'depth', 'correspondence', 'stages'
  * what is under way; `wasm` is the loaded package's module and `memory` its instance's
  * WebAssembly.Memory. Returns {value, transfer}.
  */
-export function scanFrame({ specJson, calibJson, filter, crosstalk, width, height, rgba, want = [] }, progress, wasm, memory) {
+export function scanFrame({ specJson, calibJson, filter, crosstalk, response, width, height, rgba, want = [] }, progress, wasm, memory) {
   const started = performance.now();
   const wanted = wantedResults(want);
   refuseLargeFrame(width, height);
-  const scanner = scannerFor(wasm, specJson, calibJson, filter, crosstalk, width * height, progress);
+  const scanner = scannerFor(wasm, { specJson, calibJson, filter, crosstalk, response }, width * height, progress);
   scanner.setFilter(filter);
   progress(`decoding a ${width}x${height} frame (${filter})`);
   const t0 = performance.now();
@@ -56,8 +56,8 @@ export function bytesOf(data) {
   return data instanceof ArrayBuffer ? new Uint8Array(data) : new Uint8Array(data.buffer, data.byteOffset, data.byteLength);
 }
 
-function scannerFor(wasm, specJson, calibJson, filter, crosstalk, pixels, progress) {
-  const key = [specJson, calibJson, crosstalk ? crosstalk.join(',') : 'none'].join('\u0000');
+function scannerFor(wasm, { specJson, calibJson, filter, crosstalk, response }, pixels, progress) {
+  const key = [specJson, calibJson, crosstalk ? crosstalk.join(',') : 'none', response ? response.join(',') : 'power law'].join('\u0000');
   let entry = scanners.get(key);
   if (entry) {
     scanners.delete(key); // re-insert as most recently used
@@ -70,7 +70,8 @@ function scannerFor(wasm, specJson, calibJson, filter, crosstalk, pixels, progre
       old.scanner.free();
     }
     progress('building the scanner (FFT plans and buffers)');
-    entry = { scanner: new wasm.Scanner(specJson, calibJson, filter, crosstalk ? Float32Array.from(crosstalk) : undefined), pixels };
+    const table = (values) => (values ? Float32Array.from(values) : undefined);
+    entry = { scanner: new wasm.Scanner(specJson, calibJson, filter, table(crosstalk), table(response)), pixels };
   }
   scanners.set(key, entry);
   return entry.scanner;

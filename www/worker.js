@@ -31,6 +31,21 @@ let wasm = null;
 let memory = null;
 const queue = [];
 
+/** The gammas the page assumes for a camera's codes and a projector's levels (the
+ * command line's defaults). */
+const CAMERA_GAMMA = 2.2;
+const PROJECTOR_GAMMA = 2.2;
+
+/**
+ * A camera response (256 linear values) with how far it departs from the power law and
+ * whether that is more than a measurement's own noise (`powerLaw`: read it as the power
+ * law).
+ */
+function describeResponse(values) {
+  const departure = wasm.responseDeparture(Float32Array.from(values), CAMERA_GAMMA);
+  return { values, departure, powerLaw: departure <= wasm.powerLawTolerance() };
+}
+
 /**
  * How many threads the page asks for (`?threads=N` on this script's URL, bridge.js):
  * 0 or none loads pkg/, which scans on this worker's one thread; N > 0 loads
@@ -99,9 +114,21 @@ const handlers = {
   simulatorCrosstalk() {
     return { value: [...wasm.simulatorCrosstalk()] };
   },
-  estimateCrosstalk({ frames, width, height }) {
+  estimateCrosstalk({ frames, width, height, response }) {
     const [r, g, b, k] = frames.map(bytesOf);
-    return { value: [...wasm.estimateCrosstalk(r, g, b, k, width, height, 2.2)] };
+    const table = response ? Float32Array.from(response) : undefined;
+    return { value: [...wasm.estimateCrosstalk(r, g, b, k, width, height, CAMERA_GAMMA, table)] };
+  },
+  estimateResponse({ frames, width, height, greyLevel }) {
+    const [white, grey, black] = frames.map(bytesOf);
+    const values = [...wasm.estimateResponse(white, grey, black, width, height, greyLevel, CAMERA_GAMMA, PROJECTOR_GAMMA)];
+    return { value: describeResponse(values) };
+  },
+  parseResponse({ text }) {
+    return { value: describeResponse([...wasm.parseResponse(text)]) };
+  },
+  responseJson({ values }) {
+    return { value: wasm.responseJson(Float32Array.from(values)) };
   },
   renderScene({ name, specJson, calibJson, seed }, id) {
     progress(id, `simulating the ${name} scene`);

@@ -50,6 +50,12 @@ const GREY_SHARE_FACTOR: f64 = 1.5;
 /// projector's light, not beside its edge or in the room's light alone.
 const MIN_WHITE_LIGHT: f64 = 0.1;
 
+/// How far (a share of each code's light) a measured response may stray from the power
+/// law and still be read as the power law: the measurement's own noise on a camera
+/// without a shoulder. The evaluation and the page keep the power law within it, so
+/// that a camera without a shoulder is not moved by its measurement's noise.
+pub const POWER_LAW_TOLERANCE: f32 = 0.02;
+
 /// Linear light per 8-bit camera code, non-decreasing, the same for the three channels.
 #[derive(Clone, Debug, PartialEq)]
 pub struct CameraResponse {
@@ -116,8 +122,24 @@ impl CameraResponse {
     /// Whether the table is the power law of `gamma` to within a fraction `tolerance`
     /// of each code's light.
     pub fn is_power_law(&self, gamma: f32, tolerance: f32) -> bool {
+        self.departure(gamma) <= tolerance
+    }
+
+    /// The largest difference from the power law of `gamma`, as a share of the power
+    /// law's light at the code (infinite where the power law has none and the table
+    /// some).
+    pub fn departure(&self, gamma: f32) -> f32 {
         let plain = crate::raster::gamma_lut(gamma);
-        self.linear.iter().zip(&plain).all(|(&m, &p)| (m - p).abs() <= tolerance * p)
+        self.linear.iter().zip(&plain).fold(0.0f32, |worst, (&m, &p)| {
+            let d = (m - p).abs();
+            if d == 0.0 {
+                worst
+            } else if p > 0.0 {
+                worst.max(d / p)
+            } else {
+                f32::INFINITY
+            }
+        })
     }
 }
 

@@ -10,7 +10,7 @@
 
 use super::graycode::{gray_reference, GrayReference};
 use super::{evaluate_with, measure, Metrics, Row};
-use crate::calib::response::DEFAULT_GREY_LEVEL;
+use crate::calib::response::{DEFAULT_GREY_LEVEL, POWER_LAW_TOLERANCE};
 use crate::calib::{estimate_crosstalk, estimate_crosstalk_through, estimate_response, CameraResponse, Calibration, Crosstalk};
 use crate::error::{Error, Result};
 use crate::filter::FilterMode;
@@ -250,11 +250,6 @@ impl Condition {
 /// [`measured_response`] takes: the user raises the exposure until the card's
 /// brightest part just clips, so that the white frame reaches the top of the codes.
 pub const RESPONSE_CLIP_FRACTION: f32 = 0.02;
-
-/// How far (a share of each code's light) a measured response may stray from the power
-/// law for the evaluation's scanner to keep the power law: the measurement's own noise
-/// on a camera without a shoulder, which would otherwise move every row a little.
-pub const POWER_LAW_TOLERANCE: f32 = 0.02;
 
 /// The camera's response as a user measures it: the white card ([`CARD_SCENE`]) under
 /// the projector's full white, grey [`DEFAULT_GREY_LEVEL`] and black, photographed with

@@ -456,6 +456,35 @@ async function main() {
     await waitForMessage(page, 'Pattern spec pattern-spec.json loaded');
     const shown = Number(await page.getAttribute('#point-count', 'data-count'));
     assert(shown === direct, `the page shows ${shown} points after the drop, expected ${direct}`);
+    // A camera response file (the simulator's highlight shoulder at code 204, as
+    // `stripelight response` prints it) is taken from a drop and the current frame is
+    // decoded through it; "Use the power law" gives the first count back; a broken
+    // response file is refused by name.
+    const shoulder = Array.from({ length: 256 }, (_, c) => {
+      const e = c / 255;
+      return (e <= 0.8 ? e : 0.8 + 0.4 * (1 - Math.sqrt((1 - e) / 0.2))) ** 2.2;
+    });
+    await dropFiles(page, [{ name: 'response.json', type: 'application/json', text: JSON.stringify({ linear: shoulder }) }]);
+    const loaded = clean(await waitForMessage(page, 'response.json'));
+    assert(/loaded/.test(loaded) && /by up to 4\d %/.test(loaded), `the shoulder's response was not taken as it is: ${loaded}`);
+    const reading = (on) => page.waitForFunction((want) => {
+      const c = window.stripelight.state.current;
+      return c && c.result && Boolean(c.colour?.response) === want;
+    }, on, { timeout: 30_000 });
+    await reading(true);
+    const through = Number(await page.getAttribute('#point-count', 'data-count'));
+    // The stored frame's brightest stripes reach the shoulder's codes, so reading them
+    // through it must change the cloud, and not by much.
+    assert(through !== direct && through > direct * 0.9,
+      `through the response the frame gave ${through} points, through the power law ${direct}`);
+    await page.click('#response-reset');
+    await waitForMessage(page, 'power law of gamma 2.2 again');
+    await reading(false);
+    const back = Number(await page.getAttribute('#point-count', 'data-count'));
+    assert(back === direct, `back on the power law the frame gave ${back} points, before ${direct}`);
+    await dropFiles(page, [{ name: 'short.json', type: 'application/json', text: '{"linear": [0, 0.5, 1]}' }]);
+    const short = await waitForMessage(page, 'short.json');
+    assert(/camera response/.test(short) && /256/.test(short), `unclear message for a broken response: ${short}`);
     await dropFiles(page, [{ name: 'notes.txt', type: 'text/plain', text: 'these are not pixels' }]);
     const notImage = await waitForMessage(page, 'notes.txt');
     assert(/not a readable image/.test(notImage), `unclear message for a text file: ${notImage}`);
@@ -465,7 +494,7 @@ async function main() {
     await dropFiles(page, [{ name: 'broken.json', type: 'application/json', text: '{"camera": {"width": 0}}' }]);
     const broken = await waitForMessage(page, 'broken.json');
     assert(/calibration/.test(broken), `unclear message for a broken calibration: ${broken}`);
-    return `${got.count} points from each PNG; messages: "${notImage.replace('×', '').trim()}"`;
+    return `${got.count} points from each PNG, ${through} through a shoulder's response; messages: "${notImage.replace('×', '').trim()}"`;
   });
 
   await check('4 a denied camera and a blocked pop-up give messages', async () => {
