@@ -184,7 +184,7 @@ export function summary(entry) {
   if (!r) return entry.error;
   const fam = r.stats.decoded.map((n, k) => `family ${k + 1}: ${n.toLocaleString('en')}`).join(' · ');
   const mixing = entry.colour?.mode === 'simulator' ? ' · simulator’s colour mixing undone' : '';
-  const response = entry.colour?.response ? ' · measured camera response' : '';
+  const response = entry.colour?.response ? ' · read through the camera response' : '';
   const threads = r.threads > 1 ? ` on ${r.threads} threads` : '';
   return `${entry.name}: ${r.merged.families.length.toLocaleString('en')} points (${fam}) · ${r.stats.filter}${mixing}${response} · ${r.ms.toFixed(0)} ms${threads}`;
 }
