@@ -453,10 +453,8 @@ mod cli {
             }
             Command::Crosstalk { red, green, blue, black, camera_gamma, response } => {
                 let (r, g, b, k) = (io::read_rgb8(&red)?, io::read_rgb8(&green)?, io::read_rgb8(&blue)?, io::read_rgb8(&black)?);
-                let m = match response.as_deref().map(load_response).transpose()? {
-                    Some(response) => stripelight::calib::estimate_crosstalk_through([&r, &g, &b], &k, &response.linear_f64())?,
-                    None => stripelight::calib::estimate_crosstalk([&r, &g, &b], &k, camera_gamma)?,
-                };
+                let response = response.as_deref().map(load_response).transpose()?;
+                let m = stripelight::calib::estimate_crosstalk_for([&r, &g, &b], &k, camera_gamma, response.as_ref())?;
                 // The form `scan --crosstalk` takes.
                 let values: Vec<String> = m.iter().flatten().map(|v| format!("{v:.4}")).collect();
                 println!("{}", values.join(","));

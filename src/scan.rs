@@ -573,7 +573,10 @@ impl Scanner {
             *e = decoder.weak();
         }
         merge::remove_unconfirmed(r.depth.pixels_mut(), &mut self.merged_families, &weak[..self.decoders.len().min(3)], &r.family_depth, w, h);
-        merge::remove_contradicted(r.depth.pixels_mut(), &mut self.merged_families, w, h, &mut self.rim);
+        // One family has no other to contradict it: skip the look around every pixel.
+        if families > 1 {
+            merge::remove_contradicted(r.depth.pixels_mut(), &mut self.merged_families, w, h, &mut self.rim);
+        }
         merge::resolve_disputes(&r.family_depth, r.depth.pixels_mut(), &mut self.merged_families, w, h, &mut self.rim);
         merge::remove_disputed_extensions(r.depth.pixels_mut(), &mut self.merged_families, extended, w, h, &mut self.rim);
         merge::remove_rim(r.depth.pixels_mut(), &mut self.merged_families, self.linear.pixels(), w, h, &mut self.rim);

@@ -192,18 +192,16 @@ pub fn estimate_crosstalk(
     camera_gamma: f32,
     response: Option<Vec<f32>>,
 ) -> Result<Vec<f32>, JsError> {
-    let (w, h) = (width as usize, height as usize);
-    let frame = |rgba: &[u8]| crate::raster::from_rgba8(w, h, rgba).map_err(js_error);
+    let frame = |rgba: &[u8]| rgb_frame(width, height, rgba);
     let (r, g, b, k) = (frame(red)?, frame(green)?, frame(blue)?, frame(black)?);
-    let m = match response {
-        None => crate::calib::estimate_crosstalk([&r, &g, &b], &k, camera_gamma),
-        Some(table) => {
-            let response = CameraResponse::from_table(&table).map_err(js_error)?;
-            crate::calib::estimate_crosstalk_through([&r, &g, &b], &k, &response.linear_f64())
-        }
-    }
-    .map_err(js_error)?;
+    let response = response.map(|table| CameraResponse::from_table(&table)).transpose().map_err(js_error)?;
+    let m = crate::calib::estimate_crosstalk_for([&r, &g, &b], &k, camera_gamma, response.as_ref()).map_err(js_error)?;
     Ok(m.iter().flatten().copied().collect())
+}
+
+/// An RGBA frame of `width` x `height` as the pipeline's RGB image (its size checked).
+fn rgb_frame(width: u32, height: u32, rgba: &[u8]) -> Result<Image<[u8; 3]>, JsError> {
+    crate::raster::from_rgba8(width as usize, height as usize, rgba).map_err(js_error)
 }
 
 /// The camera's response (256 linear values, one per 8-bit code) from three RGBA frames
@@ -221,8 +219,7 @@ pub fn estimate_response(
     camera_gamma: f32,
     projector_gamma: f32,
 ) -> Result<Vec<f32>, JsError> {
-    let (w, h) = (width as usize, height as usize);
-    let frame = |rgba: &[u8]| crate::raster::from_rgba8(w, h, rgba).map_err(js_error);
+    let frame = |rgba: &[u8]| rgb_frame(width, height, rgba);
     let (white, grey, black) = (frame(white)?, frame(grey)?, frame(black)?);
     let response = crate::calib::estimate_response(&white, &grey, &black, grey_level, camera_gamma, projector_gamma)
         .map_err(js_error)?;

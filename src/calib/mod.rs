@@ -596,6 +596,21 @@ pub fn estimate_crosstalk(
     estimate_crosstalk_through(primaries, black, &linear)
 }
 
+/// [`estimate_crosstalk`] with the camera's codes read through `response` where one was
+/// measured, through the power law of `camera_gamma` otherwise (what `stripelight
+/// crosstalk`, the page and the evaluation do).
+pub fn estimate_crosstalk_for(
+    primaries: [&crate::raster::Image<[u8; 3]>; 3],
+    black: &crate::raster::Image<[u8; 3]>,
+    camera_gamma: f32,
+    response: Option<&CameraResponse>,
+) -> Result<Crosstalk> {
+    match response {
+        Some(r) => estimate_crosstalk_through(primaries, black, &r.linear_f64()),
+        None => estimate_crosstalk(primaries, black, camera_gamma),
+    }
+}
+
 /// [`estimate_crosstalk`] with the camera's codes read through `linear` (light per
 /// 8-bit code: a power law's, or a measured [`CameraResponse`]'s, see
 /// [`CameraResponse::linear_f64`]).

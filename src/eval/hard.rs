@@ -11,7 +11,7 @@
 use super::graycode::{gray_reference, GrayReference};
 use super::{evaluate_with, measure, Metrics, Row};
 use crate::calib::response::{DEFAULT_GREY_LEVEL, POWER_LAW_TOLERANCE};
-use crate::calib::{estimate_crosstalk, estimate_crosstalk_through, estimate_response, CameraResponse, Calibration, Crosstalk};
+use crate::calib::{estimate_crosstalk_for, estimate_response, CameraResponse, Calibration, Crosstalk};
 use crate::error::{Error, Result};
 use crate::filter::FilterMode;
 use crate::pattern::{PatternSpec, DEFAULT_STRIPE_WIDTH};
@@ -288,11 +288,7 @@ pub fn measured_crosstalk(calib: &Calibration, cfg: &SimConfig, response: Option
         view.photograph_into(&Image::new(pw, ph, rgb), &shot, &mut scratch, &mut frame)?;
         shots.push(frame);
     }
-    let primaries = [&shots[0], &shots[1], &shots[2]];
-    match response {
-        Some(r) => estimate_crosstalk_through(primaries, &shots[3], &r.linear_f64()),
-        None => estimate_crosstalk(primaries, &shots[3], cfg.camera_gamma),
-    }
+    estimate_crosstalk_for([&shots[0], &shots[1], &shots[2]], &shots[3], cfg.camera_gamma, response)
 }
 
 /// Median width of the first family's stripes (vertical stripes) in camera pixels,
