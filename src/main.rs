@@ -88,7 +88,9 @@ mod cli {
             #[arg(long)]
             debug: Option<PathBuf>,
             /// The camera's colour mixing, 9 numbers row by row (camera channel =
-            /// row · projector primaries); `sim` for the simulator's default.
+            /// row · projector primaries); `sim` for the simulator's default; `frame` to
+            /// estimate it from the frame itself (scanned with none, the mixing
+            /// estimated from the stripes identified, scanned again, twice over).
             #[arg(long)]
             crosstalk: Option<String>,
             /// The camera's measured response (JSON from `stripelight response`): the
@@ -369,15 +371,36 @@ mod cli {
                 let calib = load_calib(&calib)?;
                 let filter: FilterMode = filter.parse()?;
                 let frame = io::read_rgb8(&image)?;
+                let from_frame = crosstalk.as_deref() == Some("frame");
                 let crosstalk = match crosstalk.as_deref() {
-                    None => stripelight::calib::IDENTITY_CROSSTALK,
+                    None | Some("frame") => stripelight::calib::IDENTITY_CROSSTALK,
                     Some("sim") => stripelight::sim::SimConfig::default().crosstalk,
                     Some(text) => stripelight::calib::parse_crosstalk(text)?,
                 };
                 let response = response.as_deref().map(load_response).transpose()?;
                 let config = ScanConfig { filter, camera_gamma, crosstalk, response, ..ScanConfig::default() };
                 let mut scanner = Scanner::new(spec, calib, config)?;
-                let result = scanner.scan(&frame).map_err(|e| prefix(&image, e))?;
+                if from_frame {
+                    let (estimates, stopped) = scanner.scan_estimating_crosstalk(&frame, stripelight::scan::FRAME_MIXING_ROUNDS).map_err(|e| prefix(&image, e))?;
+                    for (round, m) in estimates.iter().enumerate() {
+                        let values: Vec<String> = m.crosstalk.iter().flatten().map(|x| format!("{x:.4}")).collect();
+                        eprintln!(
+                            "colour mixing from the frame, round {}: {} ({} pixels inside stripes, {} to {} tiles a primary)",
+                            round + 1,
+                            values.join(","),
+                            m.pixels,
+                            m.tiles.iter().min().unwrap_or(&0),
+                            m.tiles.iter().max().unwrap_or(&0)
+                        );
+                    }
+                    if let Some(e) = stopped {
+                        let kept = if estimates.is_empty() { "no colour mixing".to_string() } else { format!("round {}'s", estimates.len()) };
+                        eprintln!("{e}; scanned with {kept}");
+                    }
+                } else {
+                    scanner.scan(&frame).map_err(|e| prefix(&image, e))?;
+                }
+                let result = scanner.result();
                 let stats = &result.stats;
                 let families: Vec<String> = stats.decoded.iter().enumerate().map(|(k, n)| format!("family {k}: {n}")).collect();
                 eprintln!(

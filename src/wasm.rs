@@ -199,6 +199,38 @@ pub fn estimate_crosstalk(
     Ok(m.iter().flatten().copied().collect())
 }
 
+/// The camera's colour mixing (9 numbers, row-major, columns scaled to sum to 1)
+/// estimated from one RGBA frame of the pattern on the scene itself, as `stripelight
+/// scan --crosstalk frame` does: the frame scanned with no mixing, the mixing read from
+/// the stripes identified, the frame scanned again with it, `FRAME_MIXING_ROUNDS`
+/// times (see [`Scanner::scan_estimating_crosstalk`]). For a rig whose white-card
+/// frames were never taken. `filter` and `response` as for [`WasmScanner::new`]. Fails,
+/// naming the problem, where the first scan identifies too little to estimate from.
+#[wasm_bindgen(js_name = estimateCrosstalkFromFrame)]
+#[allow(clippy::too_many_arguments)]
+pub fn estimate_crosstalk_from_frame(
+    spec_json: &str,
+    calib_json: &str,
+    filter: &str,
+    response: Option<Vec<f32>>,
+    rgba: &[u8],
+    width: u32,
+    height: u32,
+) -> Result<Vec<f32>, JsError> {
+    let spec = PatternSpec::from_json(spec_json).map_err(js_error)?;
+    let calib = Calibration::from_json(calib_json).map_err(js_error)?;
+    let response = response.map(|table| CameraResponse::from_table(&table)).transpose().map_err(js_error)?;
+    let config = ScanConfig { filter: parse_filter(filter)?, response, ..ScanConfig::default() };
+    let mut scanner = Scanner::new(spec, calib, config).map_err(js_error)?;
+    let frame = rgb_frame(width, height, rgba)?;
+    let (estimates, stopped) = scanner.scan_estimating_crosstalk(&frame, crate::scan::FRAME_MIXING_ROUNDS).map_err(js_error)?;
+    match (estimates.last(), stopped) {
+        (Some(m), _) => Ok(m.crosstalk.iter().flatten().copied().collect()),
+        (None, Some(e)) => Err(js_error(e)),
+        (None, None) => Err(js_error(Error::Internal("no round of the colour mixing's estimate ran".into()))),
+    }
+}
+
 /// An RGBA frame of `width` x `height` as the pipeline's RGB image (its size checked).
 fn rgb_frame(width: u32, height: u32, rgba: &[u8]) -> Result<Image<[u8; 3]>, JsError> {
     crate::raster::from_rgba8(width as usize, height as usize, rgba).map_err(js_error)

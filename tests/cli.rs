@@ -48,6 +48,22 @@ fn bad_input_is_one_line_and_a_non_zero_exit() {
     let (code, err) = run(&["scan", "--spec", &spec, "--calib", &calib, "--image", &p("black.png")]);
     assert_eq!(code, 0, "{err}");
     assert!(err.contains("0 points") && err.contains("nothing decoded"), "{err}");
+    // The colour mixing read from the frame: printed round by round in the form
+    // --crosstalk takes, and more points than with none; on the black frame, the
+    // problem is said and the scan still succeeds with none.
+    let points = |err: &str| err.lines().find_map(|l| l.split(" points").next()?.parse::<usize>().ok()).unwrap_or(0);
+    let (code, none) = run(&["scan", "--spec", &spec, "--calib", &calib, "--image", &frame]);
+    assert_eq!(code, 0, "{none}");
+    let (code, err) = run(&["scan", "--spec", &spec, "--calib", &calib, "--image", &frame, "--crosstalk", "frame"]);
+    assert_eq!(code, 0, "{err}");
+    let printed = err.lines().find(|l| l.starts_with("colour mixing from the frame, round 2: ")).unwrap_or_else(|| panic!("{err}"));
+    let values = printed.split(": ").nth(1).unwrap().split(' ').next().unwrap();
+    let m = stripelight::calib::parse_crosstalk(values).unwrap();
+    assert!((m[0][0] - 0.86).abs() < 0.02 && (m[1][0] - 0.07).abs() < 0.02, "{printed}");
+    assert!(points(&err) > points(&none), "{err} against {none}");
+    let (code, err) = run(&["scan", "--spec", &spec, "--calib", &calib, "--image", &p("black.png"), "--crosstalk", "frame"]);
+    assert_eq!(code, 0, "{err}");
+    assert!(err.contains("colour mixing from the frame: only 0 regions") && err.contains("scanned with no colour mixing"), "{err}");
     let _ = std::fs::remove_dir_all(Path::new(&dir));
 }
 

@@ -9,9 +9,11 @@
 //!
 //! [`import`] reads calibrations made by other tools (OpenCV, Bouguet's toolbox).
 
+pub mod frame_mixing;
 pub mod import;
 pub mod response;
 
+pub use frame_mixing::{estimate_crosstalk_from_stripes, FrameMixing};
 pub use response::{estimate_response, CameraResponse};
 
 use crate::error::{Error, Result};

@@ -16,7 +16,8 @@ use crate::error::{Error, Result};
 use crate::filter::FilterMode;
 use crate::pattern::{PatternSpec, DEFAULT_STRIPE_WIDTH};
 use crate::raster::Image;
-use crate::scan::{ScanConfig, Scanner};
+use crate::calib::IDENTITY_CROSSTALK;
+use crate::scan::{ScanConfig, Scanner, FRAME_MIXING_ROUNDS};
 use crate::sim::{self, pigments, rig, Frame, Scene, Scratch, Shape, SimConfig, Texture, View};
 use glam::DVec3;
 use serde::Serialize;
@@ -529,6 +530,41 @@ impl HardEval {
         Ok((one_shot, view, cfg))
     }
 
+    /// `scene` under `cond` scanned with no colour mixing, and with the mixing estimated
+    /// from the frame itself (`scan --crosstalk frame`), beside the card's; `card` is the
+    /// row's scan with the mixing measured from the card (the hard table's).
+    pub fn frame_mixing(&mut self, scene_name: &str, cond: &'static Condition, card: Metrics) -> Result<FrameMixingRow> {
+        let card_crosstalk = self.crosstalk(cond)?;
+        let scene = Scene::builtin(scene_name)?;
+        let (frame, view, _) = self.photograph(&scene, cond)?;
+        let mut scanner = self.scanner(cond)?;
+        scanner.set_crosstalk(IDENTITY_CROSSTALK)?;
+        let none = measure(&scanner.scan(&frame)?.depth, view.truth());
+        let (estimates, stopped) = scanner.scan_estimating_crosstalk(&frame, FRAME_MIXING_ROUNDS)?;
+        let from_frame = measure(&scanner.result().depth, view.truth());
+        // The card's matrix with its columns scaled as the frame's estimate is.
+        let mut card_columns = card_crosstalk;
+        for k in 0..3 {
+            let sum: f32 = (0..3).map(|c| card_crosstalk[c][k]).sum();
+            for row in card_columns.iter_mut() {
+                row[k] /= sum;
+            }
+        }
+        let difference = estimates.last().map(|m| {
+            m.crosstalk.iter().flatten().zip(card_columns.iter().flatten()).map(|(a, b)| (a - b).abs()).fold(0f32, f32::max)
+        });
+        Ok(FrameMixingRow {
+            scene: scene_name.to_string(),
+            condition: cond.name,
+            none,
+            card,
+            from_frame,
+            rounds: estimates.len(),
+            difference,
+            problem: stopped.map(|e| e.to_string()),
+        })
+    }
+
     /// Render, scan and measure `scene` under `cond`, with its Gray-code reference.
     pub fn run(&mut self, scene_name: &str, cond: &'static Condition) -> Result<HardRun> {
         let (one_shot, view, cfg) = self.render_and_scan(scene_name, cond)?;
@@ -590,6 +626,33 @@ pub struct OneShot {
     /// The merged depth.
     pub depth: Image<f32>,
 }
+
+/// A scene under a condition scanned with no colour mixing, with the card's, and with
+/// the mixing estimated from the frame itself ([`HardEval::frame_mixing`]).
+#[derive(Clone, Debug)]
+pub struct FrameMixingRow {
+    /// Scene name.
+    pub scene: String,
+    /// Condition name.
+    pub condition: &'static str,
+    /// The scan with no colour mixing (where the estimate starts).
+    pub none: Metrics,
+    /// The scan with the mixing measured from the white card.
+    pub card: Metrics,
+    /// The scan with the mixing estimated from the frame.
+    pub from_frame: Metrics,
+    /// Rounds of the estimate that ran (of [`FRAME_MIXING_ROUNDS`]).
+    pub rounds: usize,
+    /// The last estimate's largest difference from the card's matrix (its columns
+    /// scaled to sum to 1, as the estimate's are); `None` without an estimate.
+    pub difference: Option<f32>,
+    /// Why an estimate stopped, if one did.
+    pub problem: Option<String>,
+}
+
+/// The conditions of the report's table of colour mixing read from the frame: the
+/// ones a user without a white card meets (a webcam's chroma and JPEG, partial light).
+pub const FRAME_MIXING_CONDITIONS: &[&str] = &["default", "webcam", "world"];
 
 /// The coverage goal of issue 10 for a scene, as a share of the Gray-code reference's
 /// coverage, with its class: real pigments 95 %, saturated dyes 85 %, dyes with 1 %
@@ -700,6 +763,9 @@ pub struct ReportOptions {
     pub directions_table: bool,
     /// Run a condition only on its [`Condition::report_scenes`], when it has them.
     pub restrict_heavy: bool,
+    /// Also the table of colour mixing estimated from the frame itself, for the
+    /// chosen conditions among [`FRAME_MIXING_CONDITIONS`].
+    pub frame_mixing_table: bool,
 }
 
 impl Default for ReportOptions {
@@ -710,6 +776,7 @@ impl Default for ReportOptions {
             seed: 1,
             directions_table: true,
             restrict_heavy: true,
+            frame_mixing_table: true,
         }
     }
 }
@@ -763,6 +830,25 @@ projector light falls: the reference reads them there and they count as its outl
 `soft` condition the reference is photographed with a sharp projector: it stands for
 what of the scene is decodable, and a blurred projector would wash out its own finest
 bits, a limit of those patterns and not of the scene.
+";
+
+const FRAME_MIXING_HEAD: &str = "
+## Colour mixing read from the frame itself
+
+For a rig whose white-card frames were never taken (a third party's capture, or a page
+where the guided measurement was skipped), `stripelight scan --crosstalk frame` (and the
+page's \"Estimate from the shown frame\") scans the frame with no colour mixing, reads the
+mixing from the stripes it identified (`calib::estimate_crosstalk_from_stripes`: per
+tile of a few stripe periods, the camera's channels fitted as straight lines of the
+projector's primaries, which the surface's colour scales column by column; the median
+over the tiles), and scans again with it, twice over. Below, the same frames scanned
+with no mixing, with the card's (the table above) and with the frame's own; the last
+column is the estimate's largest difference from the card's matrix once both have their
+columns scaled to sum to 1 (a frame cannot tell a primary's strength from a surface's
+colour, and decoding does not need it).
+
+| scene | condition | no mixing: coverage / outliers | card's | the frame's own | estimate against the card's |
+|---|---|---|---|---|---|
 ";
 
 /// The whole of `docs/accuracy.md`: the conditions, the hard table, the ColorChecker's
@@ -858,6 +944,45 @@ pub fn report(options: &ReportOptions, progress: &mut dyn FnMut(&str)) -> Result
             of.iter().filter(|r| r.one_shot.rmse_mm > 0.5).count(),
             of.len()
         );
+    }
+
+    if options.frame_mixing_table {
+        let mut table = Vec::new();
+        for row in rows.iter().filter(|r| FRAME_MIXING_CONDITIONS.contains(&r.condition.as_str())) {
+            let cond = condition(&row.condition)?;
+            let m = eval.frame_mixing(&row.scene, cond, row.one_shot.clone())?;
+            progress(&format!(
+                "{} / {}: colour mixing from the frame, coverage {:.1}% (card {:.1}%)",
+                m.scene,
+                m.condition,
+                100.0 * m.from_frame.coverage,
+                100.0 * m.card.coverage
+            ));
+            table.push(m);
+        }
+        if !table.is_empty() {
+            out.push_str(FRAME_MIXING_HEAD);
+            for m in &table {
+                let estimate = match (&m.difference, &m.problem) {
+                    (Some(d), None) => format!("{d:.3}"),
+                    (Some(d), Some(_)) => format!("{d:.3} (round {} of {FRAME_MIXING_ROUNDS})", m.rounds),
+                    (None, _) => "none".to_string(),
+                };
+                let _ = writeln!(
+                    out,
+                    "| {} | {} | {} / {:.2}% | {} / {:.2}% | {} / {:.2}% | {} |",
+                    m.scene,
+                    m.condition,
+                    pct(m.none.coverage),
+                    100.0 * m.none.outliers,
+                    pct(m.card.coverage),
+                    100.0 * m.card.outliers,
+                    pct(m.from_frame.coverage),
+                    100.0 * m.from_frame.outliers,
+                    estimate
+                );
+            }
+        }
     }
 
     if let Some(p) = patches {
