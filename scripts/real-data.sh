@@ -209,7 +209,8 @@ while read -r name gamma xt filter; do
     "$B" scan --spec "$Z/spec.json" --calib "$Z/calib.json" --image "$ZIMG" "${args[@]}" \
         --ply "$Z/scan-$name/cloud.ply" --correspondence "$Z/scan-$name/corr.pfm" \
         --debug "$Z/scan-$name/stages" 2> "$Z/scan-$name/log.txt"
-    echo "== zion $name (gamma $gamma, crosstalk $xt, $filter): $(head -1 "$Z/scan-$name/log.txt")"
+    echo "== zion $name (gamma $gamma, crosstalk $xt, $filter): $(grep -v '^colour mixing' "$Z/scan-$name/log.txt" | head -1)"
+    grep '^colour mixing' "$Z/scan-$name/log.txt" || true
     # The sphere: inside the circle fitted to its lit outline (centre 655.3, 449.2,
     # radius 234.4 px, less 4 px), pixels whose brightest channel within 12 px left or
     # right exceeds 30 (so the dark gaps between lobes count as lit).
@@ -221,6 +222,7 @@ linear 1.0 none loggrad
 linear-direct 1.0 none direct
 linear-measured 1.0 0.770,0.206,0.024,0.099,0.828,0.073,0.056,0.371,0.573 loggrad
 linear-green-into-blue 1.0 1,0,0,0,1,0,0,0.4,0.6 loggrad
+linear-frame 1.0 frame loggrad
 CONFIGS
 
 # tingck: the wall is a plane. Object = the striped part of the projection (corners found
@@ -229,14 +231,19 @@ CONFIGS
 # (a wrong identity is a whole stripe off it), which the rig's calibration does not
 # affect.
 POLY=301,300,2729,300,2575,1708,501,1708
+# The third run of each frame reads the colour mixing from the frame itself (`--crosstalk
+# frame`, loggrad); its log's first lines are the estimates.
 for img in wall hand; do
-    for filter in loggrad direct; do
+    for filter in loggrad direct frame; do
         tag=$img-$filter
+        args=(--filter "$filter")
+        [ "$filter" = frame ] && args=(--filter loggrad --crosstalk frame)
         mkdir -p "$T/scan-$tag"
         "$B" scan --spec "$T/spec.json" --calib "$T/calib.json" --image "$T/src/sample_data/$img.jpg" \
-            --filter "$filter" --ply "$T/scan-$tag/cloud.ply" --correspondence "$T/scan-$tag/corr.pfm" \
+            "${args[@]}" --ply "$T/scan-$tag/cloud.ply" --correspondence "$T/scan-$tag/corr.pfm" \
             --debug "$T/scan-$tag/stages" 2> "$T/scan-$tag/log.txt"
-        echo "== tingck $tag: $(head -1 "$T/scan-$tag/log.txt")"
+        echo "== tingck $tag: $(grep -v '^colour mixing' "$T/scan-$tag/log.txt" | head -1)"
+        grep '^colour mixing' "$T/scan-$tag/log.txt" || true
         # The hand has no known shape: its plane fit means nothing, read only its coverage.
         stripes=()
         [ "$img" = wall ] && stripes=(--correspondence "$T/scan-$tag/corr.pfm" --stripe-width "$STRIPE")

@@ -96,6 +96,9 @@ pub enum Error {
     },
     /// Frames for measuring the camera's colour mixing that cannot give it.
     ColourFrames(String),
+    /// A scanned frame that the colour mixing cannot be read from
+    /// ([`crate::calib::estimate_crosstalk_from_stripes`]).
+    FrameMixing(String),
     /// A simulator scene or simulator setting that cannot be rendered.
     Scene(String),
     /// A broken invariant inside the library (not the input's fault): please report it.
@@ -154,6 +157,7 @@ impl fmt::Display for Error {
                 pattern.0, pattern.1, calibration.0, calibration.1
             ),
             Error::ColourFrames(msg) => write!(f, "colour frames: {msg}"),
+            Error::FrameMixing(msg) => write!(f, "colour mixing from the frame: {msg}"),
             Error::Scene(msg) => write!(f, "simulator: {msg}"),
             Error::Internal(msg) => write!(f, "internal error (please report): {msg}"),
         }

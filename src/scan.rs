@@ -712,7 +712,7 @@ impl Scanner {
     /// the mixing this scanner decodes with; a scanner made with it identifies more.
     pub fn estimate_crosstalk(&self) -> Result<FrameMixing> {
         if !self.scanned {
-            return Err(Error::ColourFrames("colour mixing from the frame: nothing has been scanned yet".into()));
+            return Err(Error::FrameMixing("nothing has been scanned yet".into()));
         }
         let colour = if detect_chroma_pairs(&self.frame) == ChromaPairs::default() { &self.frame } else { &self.interpolated };
         let period = self.predictions.iter().map(|p| p.period).fold(0.0f32, f32::max);

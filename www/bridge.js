@@ -56,15 +56,16 @@ export class WorkerBridge {
    * @param {string} type request type (see worker.js)
    * @param {object} payload fields of the request
    * @param {Transferable[]} transfer buffers to move to the worker (they become unusable here)
-   * @param {{onProgress?: (message: string) => void, limitMs?: number}} options
+   * @param {{onProgress?: (message: string) => void, limitMs?: number, scans?: number}} options
    *   `limitMs`: how long to wait for the reply before the worker is taken for hung
-   *   (default: REPLY_LIMIT_MS and the frame's size, see there)
+   *   (default: REPLY_LIMIT_MS and the frame's size, see there, times `scans`: how many
+   *   times the request scans its frame, 1 unless said)
    */
-  request(type, payload = {}, transfer = [], { onProgress, limitMs } = {}) {
+  request(type, payload = {}, transfer = [], { onProgress, limitMs, scans = 1 } = {}) {
     const slot = this.slots.reduce((a, b) => (b.pending.size < a.pending.size ? b : a));
     const id = this.nextId++;
     const pixels = (payload.width * payload.height) || 0;
-    const limit = limitMs ?? REPLY_LIMIT_MS + REPLY_MS_PER_PIXEL * pixels;
+    const limit = limitMs ?? REPLY_LIMIT_MS + REPLY_MS_PER_PIXEL * pixels * scans;
     return new Promise((resolve, reject) => {
       const timer = setTimeout(() => {
         const seconds = (limit / 1000).toFixed(limit < 10_000 ? 1 : 0);

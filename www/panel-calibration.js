@@ -1,9 +1,10 @@
 // Panel 3, calibration: the camera and projector the decoder assumes (the demo rig, an
 // approximate rig typed into the form, or a calibration JSON), drawn as a top view and
 // kept in step with the real devices' sizes; and the camera's colour mixing (none, the
-// simulator's, or measured: typed in, or measured with the projector and the camera on a
-// white card) and the camera's response (the power law, or measured on the same card
-// from its white, grey and black frames, or loaded from `stripelight response`'s file).
+// simulator's, or measured: typed in, measured with the projector and the camera on a
+// white card, or estimated from the stripes of the frame shown) and the camera's response
+// (the power law, or measured on the same card from its white, grey and black frames, or
+// loaded from `stripelight response`'s file).
 
 import { $, state, bridge, busy, setStatus, showMessage, download } from './page.js';
 import { drawRig, rigOf, hfovDeg } from './rig.js';
@@ -17,6 +18,11 @@ const COLOUR_SETTLE_MS = 800;
 
 /** The grey level the projector shows for the camera response's grey frame. */
 const RESPONSE_GREY_LEVEL = 128;
+
+/** How many times estimating the colour mixing from a frame scans it: once with no
+ * mixing, then once a round with each estimate (FRAME_MIXING_ROUNDS = 2 in src/scan.rs);
+ * the worker's reply limit grows with it. */
+const FRAME_MIXING_SCANS = 3;
 
 /** Runs whenever the colour settings change (set by bindCalibrationPanel). */
 let mixingChanged = () => {};
@@ -213,6 +219,41 @@ async function measureColour(camera) {
 }
 
 /**
+ * The colour mixing read from the stripes of the frame the results show (`stripelight
+ * scan --crosstalk frame`), for a rig whose white-card frames were never taken. The frame
+ * is read as its scan reads it: through the camera response, except the built-in sample
+ * (the simulator's camera follows the power law). Resolves to {values, entry}: 9 numbers,
+ * row-major, columns summing to 1, and the frame's entry.
+ */
+async function estimateFromShownFrame() {
+  const entry = state.current;
+  if (!entry) throw new Error('no frame is shown: capture, drop or render one, then estimate the colour mixing from it');
+  const { frame } = entry;
+  const c = state.calib;
+  if (frame.width !== c.camera.width || frame.height !== c.camera.height) {
+    throw new Error(
+      `${entry.name} is ${frame.width}x${frame.height} but the calibration’s camera is ` +
+        `${c.camera.width}x${c.camera.height}: load the calibration of the camera that took it`,
+    );
+  }
+  if (!checkSpecMatchesCalibration()) throw new Error('the pattern spec does not match the calibration');
+  const rgba = frame.rgba.slice(); // transferred: the entry keeps its pixels
+  const payload = {
+    specJson: state.specJson,
+    calibJson: state.calibJson,
+    filter: state.filter,
+    response: entry.kind === 'sample' ? undefined : state.response?.values,
+    rgba,
+    width: frame.width,
+    height: frame.height,
+  };
+  const values = await busy(`estimating the colour mixing from ${entry.name}`, () =>
+    bridge.request('estimateCrosstalkFromFrame', payload, [rgba.buffer], { onProgress: setStatus, scans: FRAME_MIXING_SCANS }),
+  );
+  return { values, entry };
+}
+
+/**
  * Bind the panel's controls. `camera` is the page's Camera (for the guided colour
  * calibration); `onMixingChanged()` runs whenever the colour-mixing setting changes.
  */
@@ -266,6 +307,21 @@ export function bindCalibrationPanel({ camera, onMixingChanged }) {
         setStatus('colour mixing and camera response measured');
       })
       .catch((e) => showMessage(e.message, 'error'));
+  $('estimate-mixing').onclick = () =>
+    estimateFromShownFrame()
+      .then(({ values, entry }) => {
+        setStatus(`colour mixing estimated from ${entry.name}`);
+        useMeasured(values); // rescans the frame shown, unless it is the sample
+        const rows = [0, 3, 6].map((i) => values.slice(i, i + 3).map((v) => v.toFixed(3)).join(' '));
+        // The built-in sample decodes with the simulator's mixing whatever is chosen here.
+        const sample = entry.kind === 'sample' ? ' (the simulated sample itself keeps the simulator’s own mixing)' : '';
+        showMessage(
+          `Colour mixing estimated from ${entry.name}: ${rows.join(' / ')} (columns sum to 1); ` +
+            `in use for camera and dropped frames${sample}.`,
+        );
+      })
+      // The library's refusals already begin with these words: said once.
+      .catch((e) => showMessage(`Colour mixing from the frame: ${e.message.replace(/^colour mixing from the frame: /i, '')}`, 'error'));
   $('response-file').onchange = (e) => {
     const file = e.target.files[0];
     e.target.value = '';

@@ -119,6 +119,14 @@ const handlers = {
     const table = response ? Float32Array.from(response) : undefined;
     return { value: [...wasm.estimateCrosstalk(r, g, b, k, width, height, CAMERA_GAMMA, table)] };
   },
+  // The mixing read from the stripes of one scanned frame (`stripelight scan --crosstalk
+  // frame`): the frame is scanned a few times on a scanner of its own, not kept.
+  estimateCrosstalkFromFrame({ specJson, calibJson, filter, response, rgba, width, height }, id) {
+    refuseLargeFrame(width, height);
+    progress(id, `estimating the colour mixing from a ${width}x${height} frame`);
+    const table = response ? Float32Array.from(response) : undefined;
+    return { value: [...wasm.estimateCrosstalkFromFrame(specJson, calibJson, filter, table, bytesOf(rgba), width, height)] };
+  },
   estimateResponse({ frames, width, height, greyLevel }) {
     const [white, grey, black] = frames.map(bytesOf);
     const values = [...wasm.estimateResponse(white, grey, black, width, height, greyLevel, CAMERA_GAMMA, PROJECTOR_GAMMA)];

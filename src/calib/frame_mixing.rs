@@ -108,7 +108,7 @@ pub fn estimate_crosstalk_from_stripes(
     depth: &[f32],
     tile: usize,
 ) -> Result<FrameMixing> {
-    let fail = |problem: String| Error::ColourFrames(format!("colour mixing from the frame: {problem}"));
+    let fail = Error::FrameMixing;
     let n = frame.len();
     if width == 0 || n % width != 0 || depth.len() != n || stripe_coords.len() != spec.families.len() || stripe_coords.iter().any(|c| c.len() != n) {
         return Err(Error::Internal(format!("frame of {n} pixels, depth of {}, stripe coordinates of other sizes", depth.len())));

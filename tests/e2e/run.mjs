@@ -9,7 +9,9 @@
 //      with the latency and the dropped frames (printed, never asserted: the machine is
 //      shared and its timings are noise);
 //   3. dropped files: the stored PNG decodes to exactly that count; a text file and a
-//      wrong-size image give clear messages;
+//      wrong-size image give clear messages; the colour mixing estimated from the dropped
+//      frame's own stripes is the simulator's and gives more points than none; a
+//      wrong-size frame and a flat grey one are refused;
 //   4. a denied camera and a blocked projector pop-up give messages;
 //   5. screenshots of the viewer with a cloud and of the teaching view, in tests/screenshots/;
 //   6. the PLY, PFM and correspondence exports follow conventions.md;
@@ -89,6 +91,17 @@ const STORED_TOLERANCE = 0.3;
 /** Mean absolute change (8-bit levels) the y4m round trip may make to the frame's pixels;
  * chroma subsampling across stripe edges moves a few levels on average. */
 const MAX_MEAN_PIXEL_CHANGE = 12;
+/**
+ * Check 3: how far the colour mixing estimated from the stored frame's own stripes may be
+ * from the simulator's, which rendered it (0.86 on the diagonal, 0.07 elsewhere), in each
+ * of the 9 numbers. The stored frame is the simulator's own lossless PNG (no 4:2:0 chroma,
+ * no JPEG), so only the estimate's own error counts: the textured scene's dyes tint the
+ * stripes it reads, and the estimate came out 0.012 from the simulator's at most
+ * (0.849-0.852 on the diagonal, 0.072-0.078 off it, on 2026-12-06). 0.03 leaves room for
+ * changes to the decoder and still fails the identity (0.14 off on the diagonal) or the
+ * mixing of a frame whose channels were swapped.
+ */
+const FRAME_MIXING_TOLERANCE = 0.03;
 /** A pixel of the viewer counts as drawn when a channel differs this much from the background. */
 const DRAWN_DELTA = 24;
 /** The viewer must show the cloud on at least this fraction of its pixels. */
@@ -284,6 +297,84 @@ function fixtureCloud(page) {
     for (const bits of new Uint32Array(r.merged.positions.buffer)) sum = (sum + bits) % 4294967291;
     return { count: r.merged.families.length, threads: r.threads, sum };
   }, FIXTURE);
+}
+
+/**
+ * Check 3: "Estimate from the shown frame" on the dropped stored frame (decoded with no
+ * colour mixing to `noneCount` points): the 9 numbers it puts in the panel are the
+ * simulator's mixing within FRAME_MIXING_TOLERANCE, they are taken as the measured
+ * mixing, and the frame decoded again with them gives more points. Resolves to
+ * {values, detail}.
+ */
+async function estimateMixing(page, noneCount) {
+  await page.evaluate(() => window.stripelight.state.frames.find((f) => f.name === 'stored-frame.png').item.click());
+  await page.waitForFunction(() => {
+    const s = window.stripelight.state;
+    const c = s.current;
+    return !s.busy && c?.name === 'stored-frame.png' && c.result?.stages && c.colour?.mode === 'none';
+  }, null, { timeout: 30_000 });
+  const before = Number(await page.getAttribute('#point-count', 'data-count'));
+  assert(before === noneCount, `with no colour mixing the stored frame shows ${before} points, scanned directly ${noneCount}`);
+  await page.click('#estimate-mixing');
+  const text = clean(await waitForMessage(page, 'Colour mixing estimated from stored-frame.png'));
+  await page.waitForFunction(() => {
+    const s = window.stripelight.state;
+    const c = s.current;
+    return !s.busy && c?.name === 'stored-frame.png' && c.result && c.colour?.mode === 'measured' && c.colour.crosstalk === s.measuredCrosstalk;
+  }, null, { timeout: 60_000 });
+  const { field, mode, simulator, taken } = await page.evaluate(() => ({
+    field: document.getElementById('crosstalk-values').value,
+    mode: document.getElementById('crosstalk').value,
+    simulator: window.stripelight.state.simulatorCrosstalk,
+    taken: window.stripelight.state.measuredCrosstalk,
+  }));
+  const values = field.split(',').map(Number);
+  assert(values.length === 9 && values.every(Number.isFinite), `the panel holds "${field}", not 9 numbers`);
+  assert(mode === 'measured', `the colour mixing in use is "${mode}" after the estimate`);
+  const worst = Math.max(...values.map((v, i) => Math.abs(v - simulator[i])));
+  const shown = [0, 3, 6].map((i) => values.slice(i, i + 3).map((v) => v.toFixed(3)).join(' ')).join(' / ');
+  console.log(`     colour mixing estimated from the stored frame: ${shown} (the simulator's: ` +
+    `${[0, 3, 6].map((i) => simulator.slice(i, i + 3).map((v) => v.toFixed(3)).join(' ')).join(' / ')}; ${worst.toFixed(3)} apart at most)`);
+  assert(worst <= FRAME_MIXING_TOLERANCE,
+    `the mixing estimated from the frame, ${shown}, is ${worst.toFixed(3)} from the simulator's (at most ${FRAME_MIXING_TOLERANCE})`);
+  const rows = [0, 3, 6].map((i) => taken.slice(i, i + 3).map((v) => v.toFixed(3)).join(' ')).join(' / ');
+  assert(text.includes(`${rows} (columns sum to 1)`), `the message does not give the mixing taken (${rows}): ${text}`);
+  const after = Number(await page.getAttribute('#point-count', 'data-count'));
+  assert(after > noneCount, `with the estimated mixing the stored frame gave ${after} points, with none ${noneCount}`);
+  return { values, detail: `mixing from the frame ${shown} (${worst.toFixed(3)} from the simulator's): ${after} points, ${noneCount} with none` };
+}
+
+/**
+ * Check 3: "Estimate from the shown frame" refuses a frame of another size than the
+ * calibration's camera (small.png, listed earlier) and a flat grey frame without stripes,
+ * with messages, and keeps the `kept` mixing; then the mixing goes back to none for the
+ * later checks. Resolves to the refusals' words.
+ */
+async function refuseMixingEstimates(page, kept) {
+  const refused = [];
+  const estimate = async (name) => {
+    await page.evaluate((n) => window.stripelight.state.frames.find((f) => f.name === n).item.click(), name);
+    await page.waitForFunction((n) => !window.stripelight.state.busy && window.stripelight.state.current?.name === n, name, {
+      timeout: 30_000,
+    });
+    await page.evaluate(() => document.querySelectorAll('#messages .message').forEach((m) => m.remove()));
+    await page.click('#estimate-mixing');
+    const text = clean(await waitForMessage(page, 'Colour mixing from the frame:'));
+    const values = await page.evaluate(() => document.getElementById('crosstalk-values').value.split(',').map(Number));
+    assert(values.every((v, i) => Math.abs(v - kept[i]) < 1e-4), `refusing ${name} changed the mixing to ${values.join(',')}`);
+    refused.push(text);
+    return text;
+  };
+  const small = await estimate('small.png');
+  assert(/320x240/.test(small) && /640x480/.test(small), `unclear refusal for a wrong-size frame: ${small}`);
+  await dropFiles(page, [{ name: 'grey.png', type: 'image/png', png: { width: 640, height: 480 } }]);
+  await waitForFrame(page, 'grey.png');
+  const grey = await estimate('grey.png');
+  assert(/regions of identified stripes/.test(grey) && grey.indexOf('olour mixing from the frame') === grey.lastIndexOf('olour mixing from the frame'),
+    `unclear refusal for a frame without stripes: ${grey}`);
+  await page.selectOption('#crosstalk', 'none');
+  await page.waitForFunction(() => !window.stripelight.state.busy && window.stripelight.state.crosstalk === 'none', null, { timeout: 30_000 });
+  return `refused: "${refused.join('" / "')}"`;
 }
 
 /** Scan RGBA pixels (from node) through the worker API directly. */
@@ -482,6 +573,7 @@ async function main() {
     await reading(false);
     const back = Number(await page.getAttribute('#point-count', 'data-count'));
     assert(back === direct, `back on the power law the frame gave ${back} points, before ${direct}`);
+    const mixing = await estimateMixing(page, direct);
     await dropFiles(page, [{ name: 'short.json', type: 'application/json', text: '{"linear": [0, 0.5, 1]}' }]);
     const short = await waitForMessage(page, 'short.json');
     assert(/camera response/.test(short) && /256/.test(short), `unclear message for a broken response: ${short}`);
@@ -494,7 +586,9 @@ async function main() {
     await dropFiles(page, [{ name: 'broken.json', type: 'application/json', text: '{"camera": {"width": 0}}' }]);
     const broken = await waitForMessage(page, 'broken.json');
     assert(/calibration/.test(broken), `unclear message for a broken calibration: ${broken}`);
-    return `${got.count} points from each PNG, ${through} through a shoulder's response; messages: "${notImage.replace('×', '').trim()}"`;
+    const refusals = await refuseMixingEstimates(page, mixing.values);
+    return `${got.count} points from each PNG, ${through} through a shoulder's response; ${mixing.detail}; ` +
+      `messages: "${notImage.replace('×', '').trim()}"; ${refusals}`;
   });
 
   await check('4 a denied camera and a blocked pop-up give messages', async () => {
