@@ -67,7 +67,9 @@ fn the_colour_mixing_read_from_a_frame_is_the_cameras() {
             "{scene}: estimate {:?}, off by {error:.4}; coverage / outliers none {:.4} / {:.4}, camera's {:.4} / {:.4}, estimated {:.4} / {:.4}",
             estimate.crosstalk, none.coverage, none.outliers, known.coverage, known.outliers, from_frame.coverage, from_frame.outliers
         );
-        assert!(error < 0.01, "{scene}: the estimate {:?} is {error} from the camera's {truth_columns:?}", estimate.crosstalk);
+        // Measured 0.0008 (colorchecker) and 0.0088 (paper-dye); the same matrix with
+        // its rows scaled to sum to 1 instead is 0.07 off.
+        assert!(error < 0.02, "{scene}: the estimate {:?} is {error} from the camera's {truth_columns:?}", estimate.crosstalk);
         assert!(from_frame.coverage > known.coverage - 0.005, "{scene}: {} against {}", from_frame.coverage, known.coverage);
         assert!(from_frame.outliers < known.outliers + 0.001, "{scene}: {} against {}", from_frame.outliers, known.outliers);
         assert!(from_frame.coverage > none.coverage + 0.05, "{scene}: {} against {} with no mixing", from_frame.coverage, none.coverage);

@@ -29,7 +29,8 @@
 //!
 //! Only pixels well inside a stripe of every family are used (a quarter of a stripe
 //! from its boundaries), so blur, half-resolution chroma and an imprecise boundary do
-//! not mix two stripes' colours; clipped pixels are left out (their slope is cut).
+//! not mix two stripes' colours; a clipped channel is left out of its own fit (its
+//! slope is cut), not out of the others'.
 //! The estimate does not depend on the mixing the scan was decoded with, only on which
 //! stripes it identified, so a scan decoded with the identity gives it, and a second
 //! scan with the estimate identifies more.
@@ -80,15 +81,56 @@ pub struct FrameMixing {
     pub pixels: usize,
 }
 
-/// One tile's sums: the projector's light `p`, the camera's `o`, their products.
+/// One camera channel's sums over a tile: the projector's light `p`, the channel's
+/// light `o`, their products, over the tile's pixels where the channel is not clipped.
 #[derive(Clone, Copy, Default)]
-struct TileSums {
+struct ChannelSums {
     n: usize,
     p: [f64; 3],
-    o: [f64; 3],
     pp: [[f64; 3]; 3],
-    po: [[f64; 3]; 3],
-    oo: [f64; 3],
+    po: [f64; 3],
+    o: f64,
+    oo: f64,
+}
+
+impl ChannelSums {
+    fn add(&mut self, p: &[f64; 3], o: f64) {
+        self.n += 1;
+        self.o += o;
+        self.oo += o * o;
+        for k in 0..3 {
+            self.p[k] += p[k];
+            self.po[k] += p[k] * o;
+            for m in 0..3 {
+                self.pp[k][m] += p[k] * p[m];
+            }
+        }
+    }
+
+    /// The channel's slope against each primary over the tile, where the tile has
+    /// enough pixels, shows the primaries apart, and the straight line explains the
+    /// channel's light (see the constants).
+    fn slopes(&self) -> Option<DVec3> {
+        if self.n < TILE_MIN_PIXELS {
+            return None;
+        }
+        let count = self.n as f64;
+        let mean_p = DVec3::from_array(self.p) / count;
+        let cov = DMat3::from_cols_array_2d(&self.pp) * (1.0 / count) - outer(mean_p, mean_p);
+        let spread = DVec3::new(cov.x_axis.x, cov.y_axis.y, cov.z_axis.z);
+        if spread.min_element() < TILE_MIN_SPREAD * TILE_MIN_SPREAD {
+            return None;
+        }
+        let scale = DMat3::from_diagonal(DVec3::new(1.0 / spread.x.sqrt(), 1.0 / spread.y.sqrt(), 1.0 / spread.z.sqrt()));
+        if (scale * cov * scale).determinant() < TILE_MIN_INDEPENDENCE {
+            return None;
+        }
+        let mean_o = self.o / count;
+        let cross = DVec3::from_array(self.po) / count - mean_p * mean_o;
+        let slope = cov.inverse() * cross;
+        let variance = self.oo / count - mean_o * mean_o;
+        (slope.dot(cross) >= TILE_MIN_EXPLAINED * variance && slope.is_finite()).then_some(slope)
+    }
 }
 
 /// Estimate the colour mixing from one scanned frame.
@@ -116,10 +158,10 @@ pub fn estimate_crosstalk_from_stripes(
     let tile = tile.max(4);
     let height = n / width;
     let (tiles_x, tiles_y) = (width.div_ceil(tile), height.div_ceil(tile));
-    let mut sums = vec![TileSums::default(); tiles_x * tiles_y];
+    let mut sums = vec![[ChannelSums::default(); 3]; tiles_x * tiles_y];
     let mut pixels = 0usize;
     for (i, (&code, &z)) in frame.iter().zip(depth).enumerate() {
-        if z.is_nan() || code.iter().any(|&c| c >= crate::raster::SATURATED) {
+        if z.is_nan() || code.iter().all(|&c| c >= crate::raster::SATURATED) {
             continue;
         }
         let mut p = [1f64; 3];
@@ -139,50 +181,27 @@ pub fn estimate_crosstalk_from_stripes(
         if !inside {
             continue;
         }
-        let o = code.map(|c| linear[c as usize] as f64);
-        let s = &mut sums[(i / width / tile) * tiles_x + (i % width) / tile];
-        s.n += 1;
-        for k in 0..3 {
-            s.p[k] += p[k];
-            s.o[k] += o[k];
-            s.oo[k] += o[k] * o[k];
-            for m in 0..3 {
-                s.pp[k][m] += p[k] * p[m];
-                s.po[k][m] += p[k] * o[m];
+        // A clipped channel is left out of its own fit only: the others still read
+        // how much of each primary they see (the leak from a primary bright enough
+        // to clip its own channel is read there).
+        let tile_sums = &mut sums[(i / width / tile) * tiles_x + (i % width) / tile];
+        for (c, channel) in tile_sums.iter_mut().enumerate() {
+            if code[c] < crate::raster::SATURATED {
+                channel.add(&p, linear[code[c] as usize] as f64);
             }
         }
         pixels += 1;
     }
     // Per primary, each usable tile's column (scaled to sum 1) and its weight.
     let mut columns: [Vec<([f64; 3], f64)>; 3] = Default::default();
-    for s in sums.iter().filter(|s| s.n >= TILE_MIN_PIXELS) {
-        let count = s.n as f64;
-        let mean_p = DVec3::from_array(s.p) / count;
-        let cov = DMat3::from_cols_array_2d(&s.pp) * (1.0 / count) - outer(mean_p, mean_p);
-        let spread = DVec3::new(cov.x_axis.x, cov.y_axis.y, cov.z_axis.z);
-        if spread.min_element() < TILE_MIN_SPREAD * TILE_MIN_SPREAD {
-            continue;
-        }
-        let scale = DMat3::from_diagonal(DVec3::new(1.0 / spread.x.sqrt(), 1.0 / spread.y.sqrt(), 1.0 / spread.z.sqrt()));
-        if (scale * cov * scale).determinant() < TILE_MIN_INDEPENDENCE {
-            continue;
-        }
+    for tile_sums in &sums {
         // slopes[c][k]: camera channel c's slope against primary k.
-        let inverse = cov.inverse();
-        let mut explained = f64::INFINITY;
-        let slopes: [[f64; 3]; 3] = std::array::from_fn(|c| {
-            let mean_o = s.o[c] / count;
-            let cross = DVec3::from_array(std::array::from_fn(|k| s.po[k][c] / count - mean_p[k] * mean_o));
-            let slope = inverse * cross;
-            let variance = s.oo[c] / count - mean_o * mean_o;
-            explained = explained.min(slope.dot(cross) / variance);
-            slope.to_array()
-        });
-        if !(explained >= TILE_MIN_EXPLAINED) {
+        let (Some(r), Some(g), Some(b)) = (tile_sums[0].slopes(), tile_sums[1].slopes(), tile_sums[2].slopes()) else {
             continue;
-        }
+        };
+        let count = tile_sums.iter().map(|c| c.n).min().unwrap_or(0) as f64;
         for (k, columns) in columns.iter_mut().enumerate() {
-            let column = DVec3::new(slopes[0][k], slopes[1][k], slopes[2][k]);
+            let column = DVec3::new(r[k], g[k], b[k]);
             let sum = column.element_sum();
             if !(sum > 0.0 && sum.is_finite()) || column.min_element() < COLUMN_MIN_ENTRY * sum {
                 continue;
