@@ -39,7 +39,9 @@
 #   tingck hand                         0.98 %
 # and on 2026-12-06, after both-sides-clipped channels read as unchanged: tingck wall
 # 25.8 %, its stripe coordinates 96.6 % within a quarter of a stripe of a smooth field
-# and 0.06 % a stripe or more off; hand 3.0 % (docs/third-party.md).
+# and 0.06 % a stripe or more off; hand 3.0 % (docs/third-party.md). With the colour mixing
+# read from the frame itself (--crosstalk frame, 2026-12-06): tingck wall 39.0 % (97.7 %
+# within a quarter of a stripe), the hand and Zion give no estimate and scan with none.
 #
 # Needs: cargo, python3 (standard library only), git when MIRRORS holds git directories.
 set -euo pipefail
