@@ -22,7 +22,7 @@
 //! | `image_bytes` | valid, damaged (cut, flipped, absurd header sizes) and arbitrary PNG/JPEG bytes | 256 |
 //! | `pattern_generate` | `PatternSpec::generate` on any arguments | 256 |
 //! | `spec_mutated_scan`, `calib_mutated_scan` | accepted mutated specs and calibrations, scanned on a 40x30 camera | 256 each |
-//! | `scan_tiny` | scanner, frames 1x1 to 48x48, any spec, rig, filter, colour mixing and content | 96 (browser: 24) |
+//! | `scan_tiny` | scanner, frames 1x1 to 48x48, any spec, rig, filter, colour mixing and content; each frame's colour mixing read from it too | 96 (browser: 24) |
 //! | `scan_any_size` | the same, frames 8x8 to 1920x1080 (browser: 640x480) | 16 (browser: 4) |
 //! | `scan_4k` | the same at 3840x2160 (native only) | 2 |
 //!
@@ -1014,6 +1014,7 @@ fn run_scan_case(case: ScanCase) -> Result<&'static str, String> {
         // A frame of the right size is always a result, however little decodes.
         scanner.scan(frame).map_err(|e| format!("frame {k} of the right size is refused: {e}"))?;
         check_result(&scanner, frame, families).map_err(|e| format!("frame {k}: {e}"))?;
+        check_frame_mixing(&scanner).map_err(|e| format!("frame {k}: {e}"))?;
         let result = scanner.result();
         decoded |= !result.cloud.is_empty() || result.stats.decoded.iter().any(|&n| n > 0);
         if w * h <= 64 * 64 {
@@ -1037,6 +1038,26 @@ fn run_scan_case(case: ScanCase) -> Result<&'static str, String> {
         }
     }
     Ok(if decoded { "decoded" } else { "nothing decoded" })
+}
+
+/// The colour mixing read from the scanned frame ([`Scanner::estimate_crosstalk`]):
+/// either a matrix the scanner can use (finite, not negative, each column summing to
+/// 1, invertible) or a one-line refusal that names it.
+fn check_frame_mixing(scanner: &Scanner) -> Result<(), String> {
+    match scanner.estimate_crosstalk() {
+        Ok(m) => {
+            let columns_sum_to_one = (0..3).all(|k| ((0..3).map(|c| m.crosstalk[c][k]).sum::<f32>() - 1.0).abs() < 1e-4);
+            if !(m.crosstalk.iter().flatten().all(|x| x.is_finite() && *x >= 0.0) && columns_sum_to_one) {
+                return Err(format!("the colour mixing read from the frame is {:?}", m.crosstalk));
+            }
+            stripelight::calib::crosstalk_inverse(&m.crosstalk).map_err(|e| format!("the colour mixing read from the frame cannot be used: {e}"))?;
+            Ok(())
+        }
+        Err(e) => {
+            let m = one_line(&e)?;
+            if m.starts_with("colour mixing from the frame: ") { Ok(()) } else { Err(format!("the colour mixing's refusal does not name it: {m}")) }
+        }
+    }
 }
 
 /// Sizes from 8x8 to `max`, most of them small (cubed uniform fractions).
