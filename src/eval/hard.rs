@@ -651,8 +651,9 @@ pub struct FrameMixingRow {
 }
 
 /// The conditions of the report's table of colour mixing read from the frame: the
-/// ones a user without a white card meets (a webcam's chroma and JPEG, partial light).
-pub const FRAME_MIXING_CONDITIONS: &[&str] = &["default", "webcam", "world"];
+/// ones a user without a white card meets (a webcam's chroma and JPEG, partial light),
+/// and broad stripes, where a tile of a frame shows the fewest colours.
+pub const FRAME_MIXING_CONDITIONS: &[&str] = &["default", "webcam", "world", "wide"];
 
 /// The coverage goal of issue 10 for a scene, as a share of the Gray-code reference's
 /// coverage, with its class: real pigments 95 %, saturated dyes 85 %, dyes with 1 %
