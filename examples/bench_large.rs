@@ -7,7 +7,9 @@
 //! `cargo run --release --example bench_large`
 //!
 //! It prints the median of 5 scans after a first one (which also touches the scanner's
-//! buffers for the first time), on every core (`RAYON_NUM_THREADS=1` for one).
+//! buffers for the first time), on every core (`RAYON_NUM_THREADS=1` for one), for each
+//! pattern decoded at the frame's own scale (`full`) and as the scanner chooses by
+//! default (`auto`, see `DecodeScale`: a third of the scale for both patterns here).
 //!
 //! Peak memory is the process's resident high-water mark (`VmHWM`, Linux) from just
 //! before the scanner is made to the end of its scans: the simulator's rendering of the
@@ -17,7 +19,7 @@
 use std::time::Instant;
 use stripelight::calib::Intrinsics;
 use stripelight::pattern::{binary_palette, windowed_sequence_in, Family};
-use stripelight::scan::{ScanConfig, Scanner};
+use stripelight::scan::{DecodeScale, ScanConfig, Scanner};
 use stripelight::sim::{self, Scene, SimConfig};
 use stripelight::{Calibration, PatternSpec};
 
@@ -58,13 +60,15 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         dist: c.dist,
     };
     let calib = Calibration { camera, ..demo };
-    println!("| pattern | frame | ms per scan | peak memory | points |");
-    println!("|---|---|---|---|---|");
-    for (name, spec) in [("125 stripes, 8 colours, 1 direction", third_party()?), ("default, 2 directions", PatternSpec::generate(2, 1024, 768, 10.0)?)] {
+    println!("| pattern | frame | decode scale | ms per scan | peak memory | points |");
+    println!("|---|---|---|---|---|---|");
+    let patterns = [("125 stripes, 8 colours, 1 direction", third_party()?), ("default, 2 directions", PatternSpec::generate(2, 1024, 768, 10.0)?)];
+    for ((name, spec), (scale_name, decode_scale)) in patterns.iter().flat_map(|p| [(p, ("full", DecodeScale::Full)), (p, ("auto", DecodeScale::Auto))]) {
         let cfg = SimConfig { seed: 1, projector_gamma: spec.encoding_gamma as f32, ..SimConfig::default() };
         let frame = sim::render(&Scene::builtin("sphere")?, &calib, &spec.render_rgb8(), &cfg)?.image;
         reset_peak();
-        let mut scanner = Scanner::new(spec, calib.clone(), ScanConfig { crosstalk: cfg.crosstalk, ..ScanConfig::default() })?;
+        let config = ScanConfig { crosstalk: cfg.crosstalk, decode_scale, ..ScanConfig::default() };
+        let mut scanner = Scanner::new(spec.clone(), calib.clone(), config)?;
         let first = Instant::now();
         scanner.scan(&frame)?;
         let first_ms = first.elapsed().as_secs_f64() * 1000.0;
@@ -79,7 +83,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let ms = times[RUNS / 2];
         let peak = peak_mb().map_or("unknown".into(), |mb| format!("{mb:.0} MB"));
         let (w, h) = frame.size();
-        println!("| {name} | {w}x{h} | {ms:.0} (first {first_ms:.0}) | {peak} | {} |", scanner.result().stats.merged);
+        let scale = match scanner.decode_factor() {
+            1 => format!("{scale_name}: 1"),
+            f => format!("{scale_name}: 1/{f}"),
+        };
+        println!("| {name} | {w}x{h} | {scale} | {ms:.0} (first {first_ms:.0}) | {peak} | {} |", scanner.result().stats.merged);
         let stages: Vec<String> = scanner.result().stats.stage_ms.iter().map(|(n, ms)| format!("{n} {ms:.0}")).collect();
         eprintln!("  last scan by stage (ms): {}", stages.join(", "));
     }

@@ -97,6 +97,12 @@ mod cli {
             /// frame's codes are read through it instead of --camera-gamma's power law.
             #[arg(long)]
             response: Option<PathBuf>,
+            /// The scale the frame is decoded at: `auto` (reduced by an integer factor
+            /// where the frame is larger than VGA and its stripes are 16 camera pixels
+            /// or broader), `full`, or a factor from 1 to 16. The outputs keep the
+            /// frame's size either way.
+            #[arg(long, default_value = "auto")]
+            decode_scale: String,
         },
         /// Render built-in scenes, scan them and print the accuracy table (Markdown).
         Eval {
@@ -366,7 +372,7 @@ mod cli {
                 );
                 Ok(())
             }
-            Command::Scan { spec, calib, image, filter, camera_gamma, depth, correspondence, ply, ascii, debug, crosstalk, response } => {
+            Command::Scan { spec, calib, image, filter, camera_gamma, depth, correspondence, ply, ascii, debug, crosstalk, response, decode_scale } => {
                 let spec = load_spec(&spec)?;
                 let calib = load_calib(&calib)?;
                 let filter: FilterMode = filter.parse()?;
@@ -378,7 +384,8 @@ mod cli {
                     Some(text) => stripelight::calib::parse_crosstalk(text)?,
                 };
                 let response = response.as_deref().map(load_response).transpose()?;
-                let config = ScanConfig { filter, camera_gamma, crosstalk, response, ..ScanConfig::default() };
+                let decode_scale = decode_scale.parse()?;
+                let config = ScanConfig { filter, camera_gamma, crosstalk, response, decode_scale, ..ScanConfig::default() };
                 let mut scanner = Scanner::new(spec, calib, config)?;
                 if from_frame {
                     let (estimates, stopped) = scanner.scan_estimating_crosstalk(&frame, stripelight::scan::FRAME_MIXING_ROUNDS).map_err(|e| prefix(&image, e))?;
@@ -403,8 +410,10 @@ mod cli {
                 let result = scanner.result();
                 let stats = &result.stats;
                 let families: Vec<String> = stats.decoded.iter().enumerate().map(|(k, n)| format!("family {k}: {n}")).collect();
+                let f = stats.decode_factor;
+                let scale = if f > 1 { format!(", decoded at 1/{f} scale ({}x{})", stats.width / f, stats.height / f) } else { String::new() };
                 eprintln!(
-                    "{} points ({}), {} of {} pixels usable, filter {}",
+                    "{} points ({}), {} of {} pixels usable, filter {}{scale}",
                     stats.merged,
                     families.join(", "),
                     stats.usable,

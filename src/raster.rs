@@ -23,6 +23,33 @@ pub type Rgb = [f32; 3];
 /// The page's exposure meter (`www/camera.js`) uses the same level.
 pub const SATURATED: u8 = 250;
 
+/// `src` reduced by `factor` in each direction, each output pixel the rounded mean of a
+/// `factor` x `factor` block (a box filter; the last columns and rows that do not fill a
+/// block are left out), written into `dst` (resized to fit).
+pub fn downsample_box_into(src: &Image<[u8; 3]>, factor: usize, dst: &mut Image<[u8; 3]>) {
+    let factor = factor.max(1);
+    let (w, h) = (src.width() / factor, src.height() / factor);
+    if dst.size() != (w, h) {
+        *dst = Image::new(w, h, [0; 3]);
+    }
+    let (sw, n) = (src.width(), (factor * factor) as u32);
+    let pixels = src.pixels();
+    for (y, row) in dst.pixels_mut().chunks_mut(w.max(1)).enumerate() {
+        for (x, out) in row.iter_mut().enumerate() {
+            let mut sum = [0u32; 3];
+            for dy in 0..factor {
+                let start = (y * factor + dy) * sw + x * factor;
+                for p in &pixels[start..start + factor] {
+                    for c in 0..3 {
+                        sum[c] += p[c] as u32;
+                    }
+                }
+            }
+            *out = sum.map(|v| ((v + n / 2) / n) as u8);
+        }
+    }
+}
+
 /// The table from 8-bit camera values to linear light in 0..=1 through a power law
 /// `gamma`: `linear = (value / 255)^gamma` (2.2 for the simulator's camera and most
 /// webcams; 1.0 keeps values as they are).

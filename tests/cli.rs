@@ -35,13 +35,21 @@ fn bad_input_is_one_line_and_a_non_zero_exit() {
     fails_with(&["scan", "--spec", &spec, "--calib", &calib, "--image", &p("text.png")], "not a readable image");
     fails_with(&["scan", "--spec", &spec, "--calib", &calib, "--image", &p("p.png")], "1024x768 but 640x480");
     fails_with(&["scan", "--spec", &spec, "--calib", &calib, "--image", &frame, "--filter", "sharp"], "filter");
+    fails_with(&["scan", "--spec", &spec, "--calib", &calib, "--image", &frame, "--decode-scale", "0"], "decode scale");
     fails_with(&["calib", "--default", "--out", "/nonexistent-dir/c.json"], "/nonexistent-dir/c.json");
     // A good scan writes the depth map and the cloud and says how many points.
     let (code, err) = run(&["scan", "--spec", &spec, "--calib", &calib, "--image", &frame, "--crosstalk", "sim",
         "--depth", &p("d.pfm"), "--ply", &p("c.ply")]);
     assert_eq!(code, 0, "{err}");
-    assert!(err.contains("points"), "{err}");
+    assert!(err.contains("points") && !err.contains("decoded at"), "{err}");
     assert!(std::fs::read(p("d.pfm")).unwrap().starts_with(b"Pf\n640 480\n-1"));
+    // Reduced by a factor asked for: said on the summary line, the outputs at the
+    // frame's size.
+    let (code, err) = run(&["scan", "--spec", &spec, "--calib", &calib, "--image", &frame, "--crosstalk", "sim",
+        "--decode-scale", "2", "--depth", &p("d2.pfm")]);
+    assert_eq!(code, 0, "{err}");
+    assert!(err.contains("decoded at 1/2 scale (320x240)"), "{err}");
+    assert!(std::fs::read(p("d2.pfm")).unwrap().starts_with(b"Pf\n640 480\n-1"));
     assert!(std::fs::read(p("c.ply")).unwrap().starts_with(b"ply\nformat binary_little_endian 1.0\n"));
     // A black frame is a result (nothing decoded), not an error.
     std::fs::write(p("black.png"), stripelight::io::encode_png(&stripelight::Image::new(640, 480, [0u8; 3])).unwrap()).unwrap();

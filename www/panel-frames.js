@@ -186,7 +186,9 @@ export function summary(entry) {
   const mixing = entry.colour?.mode === 'simulator' ? ' · simulator’s colour mixing undone' : '';
   const response = entry.colour?.response ? ' · read through the camera response' : '';
   const threads = r.threads > 1 ? ` on ${r.threads} threads` : '';
-  return `${entry.name}: ${r.merged.families.length.toLocaleString('en')} points (${fam}) · ${r.stats.filter}${mixing}${response} · ${r.ms.toFixed(0)} ms${threads}`;
+  const f = r.stats.decode_factor;
+  const scale = f > 1 ? ` · decoded at 1/${f} scale` : '';
+  return `${entry.name}: ${r.merged.families.length.toLocaleString('en')} points (${fam}) · ${r.stats.filter}${mixing}${response}${scale} · ${r.ms.toFixed(0)} ms${threads}`;
 }
 
 /**
