@@ -50,27 +50,29 @@ pub struct ScanConfig {
 }
 
 /// At what scale a scanner decodes its frames. A camera of many megapixels with a
-/// projector of few pixels sees each projector pixel over several camera pixels and
-/// each stripe over tens of them; there the decoder loses much of what it decodes at
-/// the usual scale, and the frame reduced by an integer factor (each pixel the mean of
-/// a block, which also averages out sensor and JPEG noise) decodes better and several
-/// times faster. The stripe coordinates found at the reduced scale are then
-/// interpolated back to every pixel of the frame and triangulated there, so the depth
-/// map, the correspondences and the cloud keep the frame's size.
+/// projector of few pixels sees each projector pixel over several camera pixels. Where a
+/// stripe boundary falls inside a projector pixel (a stripe width that is not a whole
+/// number of pixels, or boundaries offset by half a pixel), the pattern image holds that
+/// pixel as a blend of the two stripes' colours, and such a camera sees a band of a
+/// third colour several pixels wide at the boundary, which the decoder reads as edges
+/// of their own. The frame reduced by an integer factor (each pixel the mean of a
+/// block, which also averages out sensor and JPEG noise) narrows the band below a
+/// pixel again, and decodes several times faster. The stripe coordinates found at the
+/// reduced scale are then interpolated back to every pixel of the frame and
+/// triangulated there, so the depth map, the correspondences and the cloud keep the
+/// frame's size.
 ///
 /// Measured on the simulator (`eval --hard --conditions 8mp`: 3264 x 2448, 3.5 camera
-/// pixels per projector pixel, 26-pixel stripes), `Auto` decodes at a third of the
-/// scale: ColorChecker coverage 88.2 -> 95.8 %, sphere in 1 % dyes 89.3 -> 93.8 %, the
-/// bag 69.0 -> 75.8 %, RMSE about halved (0.45 -> 0.24 mm), outliers 0.02-0.04 ->
-/// 0.05-0.12 %, the scan 4.5 times faster. With a 512 x 384 projector (4 camera pixels
-/// per projector pixel) and a 1920 x 1440 camera, the sphere's coverage goes 71.2 ->
-/// 95.1 % and its RMSE 1.1 -> 0.32 mm at half the scale.
-///
-/// Why the frame's own scale loses there is not found: not the filter (`direct` loses
-/// as much), not the tiles of large frames, not the stripes' width alone (1920 x 1440
-/// with 20-pixel stripes and 2 camera pixels per projector pixel decodes 96.8 % at its
-/// own scale), not the ratio alone (1280 x 960 with 4 camera pixels per projector pixel
-/// decodes 94.3 %).
+/// pixels per projector pixel, 7.5-pixel projector stripes, so every boundary is
+/// blended), `Auto` decodes at a third of the scale: ColorChecker coverage 88.2 -> 95.8
+/// %, sphere in 1 % dyes 89.3 -> 93.8 %, the bag 69.0 -> 75.8 %, RMSE about halved
+/// (0.45 -> 0.24 mm), outliers 0.02-0.04 -> 0.05-0.12 %, the scan 4.5 times faster.
+/// With a 512 x 384 projector (4 camera pixels per projector pixel) showing 5-pixel
+/// stripes whose boundaries lie on pixel centres, and a 1920 x 1440 camera, the sphere
+/// decodes 71.2 % (RMSE 1.1 mm) at the frame's own scale and 95.1 % (0.32 mm) at half
+/// of it; the same stripes moved by half a pixel onto the pixels' edges decode 95.9 %
+/// (0.20 mm) at the frame's own scale. On real photographs, where noise and blur are
+/// larger, the reduced scale gains too (`docs/third-party.md`).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum DecodeScale {
     /// The frame's own scale.

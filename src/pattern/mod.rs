@@ -256,6 +256,28 @@ impl Family {
     }
 }
 
+/// For a family of vertical (0 degrees) or horizontal (90 degrees) stripes a whole
+/// number of pixels wide, the shift of `origin` (less than a pixel) that puts every
+/// boundary on the edge between two projector pixels; `None` for other families. A
+/// boundary inside a pixel is rendered as a blend of the two stripes' colours, which a
+/// camera that resolves the projector's pixels sees as a band of a third colour (see
+/// `scan::DecodeScale`).
+fn edge_alignment(angle_deg: f64, width: u32, height: u32, origin: f64, stripe_width: f64) -> Option<f64> {
+    if stripe_width.fract() != 0.0 {
+        return None;
+    }
+    // The family coordinate is measured from the image's centre (`Family::stripe_coord`).
+    let centre = match angle_deg {
+        a if a == 0.0 => (width as f64 - 1.0) / 2.0,
+        a if a == 90.0 => (height as f64 - 1.0) / 2.0,
+        _ => return None,
+    };
+    // Boundary j lies at pixel coordinate centre + origin + j * stripe_width; pixel
+    // edges are at half-integers.
+    let at = centre + origin;
+    Some((at - 0.5).round() + 0.5 - at)
+}
+
 impl PatternSpec {
     /// A pattern of `directions` stripe families for a `width` x `height` projector
     /// with stripes `stripe_width` projector pixels wide.
@@ -285,9 +307,18 @@ impl PatternSpec {
             let (lo, hi) = Family::extent(angle, width, height);
             // At least a window's worth of stripes (3, the smallest window), so that a
             // projector narrower than three stripes still gets a decodable pattern.
-            let count = (((hi - lo) / stripe_width).ceil() as usize).max(3);
+            let mut count = (((hi - lo) / stripe_width).ceil() as usize).max(3);
             // Centre the stripes on the image so both ends are cut alike.
-            let origin = (lo + hi) / 2.0 - count as f64 * stripe_width / 2.0;
+            let mut origin = (lo + hi) / 2.0 - count as f64 * stripe_width / 2.0;
+            if let Some(shift) = edge_alignment(angle, width, height, origin, stripe_width) {
+                // Moved by up to half a pixel: one stripe more where the ends would
+                // no longer be covered.
+                if (origin + shift > lo) || (origin + shift + count as f64 * stripe_width < hi) {
+                    count += 1;
+                    origin = (lo + hi) / 2.0 - count as f64 * stripe_width / 2.0;
+                }
+                origin += edge_alignment(angle, width, height, origin, stripe_width).unwrap_or(0.0);
+            }
             families.push(Family {
                 angle_deg: angle,
                 stripe_width,
@@ -511,6 +542,29 @@ impl PatternSpec {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Vertical and horizontal stripes a whole number of pixels wide have every
+    /// boundary on a pixel edge, so every pixel of the rendered pattern is one palette
+    /// colour (or the background), none a blend; on every projector size, odd or even.
+    #[test]
+    fn whole_pixel_stripes_render_without_blended_pixels() {
+        for (w, h, stripe) in [(512, 384, 5.0), (341, 256, 5.0), (1024, 768, 10.0), (1365, 767, 7.0), (800, 600, 3.0), (1920, 1080, 9.0)] {
+            let spec = PatternSpec::generate(2, w, h, stripe).unwrap();
+            for f in 0..2 {
+                let (lo, hi) = Family::extent(spec.families[f].angle_deg, w, h);
+                let fam = &spec.families[f];
+                assert!(fam.origin <= lo && fam.origin + fam.count as f64 * fam.stripe_width >= hi, "{w}x{h} family {f} does not cover the image");
+                let img = spec.render_family_linear(f);
+                for p in img.pixels() {
+                    let pure = spec.palette.iter().chain([&spec.background]).any(|c| (0..3).all(|k| (p[k] as f64 - c[k]).abs() < 1e-6));
+                    assert!(pure, "{w}x{h} stripes of {stripe}: a blended pixel {p:?}");
+                }
+            }
+        }
+        // A stripe width that is not a whole number keeps its blended boundaries.
+        let spec = PatternSpec::generate(1, 1024, 768, 7.5).unwrap();
+        assert!(spec.render_family_linear(0).pixels().iter().any(|p| !spec.palette.iter().any(|c| (0..3).all(|k| (p[k] as f64 - c[k]).abs() < 1e-6))));
+    }
 
     #[test]
     fn generated_specs_validate_and_round_trip() {
