@@ -42,6 +42,9 @@
 # and 0.06 % a stripe or more off; hand 3.0 % (docs/third-party.md). With the colour mixing
 # read from the frame itself (--crosstalk frame, 2026-12-06): tingck wall 39.0 % (97.7 %
 # within a quarter of a stripe), the hand and Zion give no estimate and scan with none.
+# On 2026-12-07 the tingck frames are decoded at half the scale (a projector pixel covers
+# about 5 camera pixels; `scan --decode-scale`, default auto): wall 42.4 % (loggrad),
+# 52.1 % (--crosstalk frame), hand 15.2 %; Zion is unchanged (its own scale).
 #
 # Needs: cargo, python3 (standard library only), git when MIRRORS holds git directories.
 set -euo pipefail

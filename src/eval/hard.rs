@@ -186,7 +186,7 @@ pub const CONDITIONS: &[Condition] = &[
     },
     Condition {
         name: "8mp",
-        summary: "an 8-megapixel camera (3264 x 2448), 7.5-pixel stripes: about 25 camera pixels",
+        summary: "an 8-megapixel camera (3264 x 2448), 7.5-pixel stripes: about 25 camera pixels, 3.5 per projector pixel, so the scanner decodes at a third of the scale",
         camera_scale: EIGHT_MP_SCALE,
         stripe_width: EIGHT_MP_STRIPE_WIDTH,
         report_scenes: Some(EIGHT_MP_REPORT_SCENES),
