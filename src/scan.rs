@@ -991,7 +991,13 @@ impl Scanner {
             return Vec::new();
         }
         if let Some(c) = self.coarse.as_deref() {
-            return c.scanner.stages();
+            // The stages the decoder saw, at the reduced scale: each caption says so.
+            let (w, h) = c.scanner.size();
+            let mut stages = c.scanner.stages();
+            for stage in &mut stages {
+                stage.caption = format!("{} (Decoded at 1/{} scale, {w}x{h}.)", stage.caption, c.factor);
+            }
+            return stages;
         }
         crate::stages::render(&StageInputs {
             frame: &self.frame,

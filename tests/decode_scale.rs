@@ -58,7 +58,16 @@ fn a_large_frame_of_blended_boundaries_decodes_at_a_reduced_scale() {
         assert_eq!(r.depth.size(), frame.size());
         assert_eq!(r.cloud.len(), r.depth.pixels().iter().filter(|z| !z.is_nan()).count());
         assert!(r.correspondence().pixels().iter().all(|c| c[0].is_nan() || (-600.0..600.0).contains(&c[0])));
-        (s.decode_factor(), measure(&r.depth, view.truth()))
+        let metrics = measure(&r.depth, view.truth());
+        // The teaching stages are the decoder's, at the reduced scale, and say so.
+        let f = s.decode_factor();
+        let stages = s.stages();
+        assert!(!stages.is_empty());
+        for stage in &stages {
+            assert_eq!(stage.image.size(), (1920 / f, 1440 / f), "{}", stage.name);
+            assert_eq!(stage.caption.contains(&format!("1/{f} scale")), f > 1, "{}", stage.caption);
+        }
+        (f, metrics)
     };
     let ((full_factor, full), (factor, reduced)) = (scan(DecodeScale::Full), scan(DecodeScale::Auto));
     eprintln!(
