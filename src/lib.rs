@@ -22,7 +22,7 @@
 //! | point clouds as flat arrays, and PLY | [`cloud`] | error |
 //! | pictures of every stage, for people | [`stages`] | filter, raster, segment |
 //! | the long-lived scanner that runs the stages per frame | [`scan`] | calib, cloud, decode, error, filter, merge, pattern, raster, segment, stages, triangulate |
-//! | projector-camera calibration, its import from OpenCV and Bouguet files, rays and colour mixing | [`calib`] | error, raster |
+//! | projector-camera calibration, its import from OpenCV and Bouguet files, rays and colour mixing (measured, or read from a scanned frame's stripes) | [`calib`] | error, pattern, raster |
 //! | projector-camera simulator with ground truth | [`sim`] | calib, error, raster |
 //! | accuracy against ground truth, and the Gray-code reference | [`eval`] | calib, error, filter, pattern, raster, scan, sim, triangulate |
 //! | PNG/PFM reading and writing | [`io`] | error, raster |
