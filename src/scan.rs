@@ -172,6 +172,21 @@ pub struct ScanStats {
     pub stage_ms: Vec<(&'static str, f64)>,
 }
 
+impl ScanStats {
+    /// The figures of a frame's scan, written in place: the per-frame path reuses the
+    /// stats' vectors and string (`stage_ms` is the caller's).
+    #[allow(clippy::too_many_arguments)]
+    fn fill(&mut self, (width, height): (usize, usize), family_depth: &[Image<f32>], merged: usize, usable: usize, chroma: &'static str, decode_factor: usize, filter: FilterMode) {
+        self.decoded.clear();
+        self.decoded.extend(family_depth.iter().map(|depth| depth.pixels().iter().filter(|z| !z.is_nan()).count()));
+        (self.width, self.height, self.merged, self.usable) = (width, height, merged, usable);
+        (self.chroma, self.decode_factor) = (chroma, decode_factor);
+        self.filter.clear();
+        use std::fmt::Write;
+        let _ = write!(self.filter, "{filter}");
+    }
+}
+
 /// Times the stages of one scan with the configured clock, if any.
 struct StageClock {
     clock: Option<fn() -> f64>,
@@ -856,20 +871,8 @@ impl Scanner {
         clock.lap("merge", &mut laps);
 
         fill_cloud(&self.triangulator, &self.frame, &r.depth, &|i| self.merged_families[i], &mut r.cloud);
-        r.stats.decoded.clear();
-        for depth in &r.family_depth {
-            r.stats.decoded.push(depth.pixels().iter().filter(|z| !z.is_nan()).count());
-        }
-        // Filled in place: the per-frame path reuses the stats' vectors and string.
-        let stats = &mut r.stats;
-        (stats.width, stats.height, stats.merged, stats.usable) = (w, h, r.cloud.len(), usable);
-        (stats.chroma, stats.decode_factor) = (pairs.name(), 1);
-        stats.filter.clear();
-        {
-            use std::fmt::Write;
-            let _ = write!(stats.filter, "{}", self.config.filter);
-        }
-        stats.stage_ms = laps;
+        r.stats.fill((w, h), &r.family_depth, r.cloud.len(), usable, pairs.name(), 1, self.config.filter);
+        r.stats.stage_ms = laps;
         clock.lap("cloud", &mut r.stats.stage_ms);
         self.scanned = true;
         Ok(&self.result)
@@ -912,20 +915,9 @@ impl Scanner {
         merge::merge_into(&r.family_depth, &self.weights, r.depth.pixels_mut(), &mut self.merged_families);
         clock.lap("full-scale depth", &mut laps);
         fill_cloud(&self.triangulator, &self.frame, &r.depth, &|i| self.merged_families[i], &mut r.cloud);
-        r.stats.decoded.clear();
-        for depth in &r.family_depth {
-            r.stats.decoded.push(depth.pixels().iter().filter(|z| !z.is_nan()).count());
-        }
         let f2 = coarse.factor * coarse.factor;
-        let stats = &mut r.stats;
-        (stats.width, stats.height, stats.merged, stats.usable) = (w, h, r.cloud.len(), inner.stats.usable * f2);
-        (stats.chroma, stats.decode_factor) = (inner.stats.chroma, coarse.factor);
-        stats.filter.clear();
-        {
-            use std::fmt::Write;
-            let _ = write!(stats.filter, "{}", self.config.filter);
-        }
-        stats.stage_ms = laps;
+        r.stats.fill((w, h), &r.family_depth, r.cloud.len(), inner.stats.usable * f2, inner.stats.chroma, coarse.factor, self.config.filter);
+        r.stats.stage_ms = laps;
         clock.lap("full-scale cloud", &mut r.stats.stage_ms);
         self.scanned = true;
         Ok(&self.result)
