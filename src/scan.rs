@@ -612,8 +612,10 @@ impl Scanner {
             None
         };
         let (sw, sh) = if coarse.is_some() { (0, 0) } else { (w, h) };
+        // The reduced-scale scanner filters; this one's filter is never run (a token 8 x 8).
+        let (fw, fh) = if coarse.is_some() { (8, 8) } else { (w, h) };
         Ok(Scanner {
-            filter: LogGradFilter::for_frame(sw.max(8), sh.max(8), period, config.tiling)?,
+            filter: LogGradFilter::for_frame(fw, fh, period, config.tiling)?,
             restored: (0..n).map(|_| Restored::new(sw, sh)).collect(),
             segmentations: (0..n).map(|_| Segmentation::for_pattern(spec.unlit_channels())).collect(),
             // A single family is not merged: it needs no weights.
