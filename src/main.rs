@@ -98,9 +98,9 @@ mod cli {
             #[arg(long)]
             response: Option<PathBuf>,
             /// The scale the frame is decoded at: `auto` (reduced by an integer factor
-            /// where the frame is larger than VGA and its stripes are 16 camera pixels
-            /// or broader), `full`, or a factor from 1 to 16. The outputs keep the
-            /// frame's size either way.
+            /// where a projector pixel covers 3 or more camera pixels, as in large
+            /// photographs; never below VGA), `full`, or a factor from 1 to 16. The
+            /// outputs keep the frame's size either way.
             #[arg(long, default_value = "auto")]
             decode_scale: String,
         },
