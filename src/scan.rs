@@ -901,19 +901,30 @@ impl Scanner {
             upsample_coords(coords, inner.depth.pixels(), &coarse.table, out);
         }
         clock.lap("upsample", &mut laps);
-        // Each family's depth at the frame's scale: at once with threads, in order
-        // without (`cfg(parallel)`, build.rs).
+        // Each family's depth at the frame's scale, in bands of rows: at once with
+        // threads, in order without (`cfg(parallel)`, build.rs).
         let triangulator = &self.triangulator;
-        let family = |(k, (coords, (depth, weights))): (usize, (&Vec<f32>, (&mut Image<f32>, &mut Vec<f32>)))| {
-            triangulator.family_depth_into(k, coords, depth.pixels_mut(), weights);
-        };
-        #[cfg(parallel)]
-        {
-            use rayon::prelude::*;
-            r.stripe_coords.par_iter().zip(r.family_depth.par_iter_mut().zip(self.weights.par_iter_mut())).enumerate().for_each(family);
+        let band = w * UPSAMPLE_ROWS;
+        for (k, (coords, (depth, weights))) in r.stripe_coords.iter().zip(r.family_depth.iter_mut().zip(self.weights.iter_mut())).enumerate() {
+            let rows = |b: usize, q: &[f32], d: &mut [f32], wt: &mut [f32]| triangulator.family_depth_rows_into(k, b * UPSAMPLE_ROWS, q, d, wt);
+            // A single family has no weights (empty): each band gets none.
+            macro_rules! bands {
+                ($chunks:ident, $chunks_mut:ident) => {
+                    if weights.is_empty() {
+                        coords.$chunks(band).zip(depth.pixels_mut().$chunks_mut(band)).enumerate().for_each(|(b, (q, d))| rows(b, q, d, &mut []));
+                    } else {
+                        coords.$chunks(band).zip(depth.pixels_mut().$chunks_mut(band).zip(weights.$chunks_mut(band))).enumerate().for_each(|(b, (q, (d, wt)))| rows(b, q, d, wt));
+                    }
+                };
+            }
+            #[cfg(parallel)]
+            {
+                use rayon::prelude::*;
+                bands!(par_chunks, par_chunks_mut);
+            }
+            #[cfg(not(parallel))]
+            bands!(chunks, chunks_mut);
         }
-        #[cfg(not(parallel))]
-        r.stripe_coords.iter().zip(r.family_depth.iter_mut().zip(self.weights.iter_mut())).enumerate().for_each(family);
         merge::merge_into(&r.family_depth, &self.weights, r.depth.pixels_mut(), &mut self.merged_families);
         clock.lap("full-scale depth", &mut laps);
         fill_cloud(&self.triangulator, &self.frame, &r.depth, &|i| self.merged_families[i], &mut r.cloud);

@@ -139,18 +139,25 @@ impl Triangulator {
     /// its merge weight `1 / (dz/dq)²` into `weight` unless that is empty (a single
     /// family is not merged).
     pub fn family_depth_into(&self, family: usize, q: &[f32], depth: &mut [f32], weight: &mut [f32]) {
+        self.family_depth_rows_into(family, 0, q, depth, weight);
+    }
+
+    /// [`Triangulator::family_depth_into`] for a band of whole rows starting at row
+    /// `first_row`: `q`, `depth` and `weight` (empty: no weights) hold the band's
+    /// pixels only, so that bands can be triangulated at once.
+    pub fn family_depth_rows_into(&self, family: usize, first_row: usize, q: &[f32], depth: &mut [f32], weight: &mut [f32]) {
         let weigh = !weight.is_empty();
         depth.fill(f32::NAN);
         weight.fill(0.0);
         // Row by row, so that a pixel's column and row come without a division.
-        for (v, row) in q.chunks(self.width).enumerate() {
-            let first = v * self.width;
+        for (dv, row) in q.chunks(self.width).enumerate() {
+            let (v, band_first) = (first_row + dv, dv * self.width);
             for (u, &qi) in row.iter().enumerate() {
                 if qi.is_nan() {
                     continue;
                 }
-                let i = first + u;
-                if let Some((z, dzdq)) = self.depth_at(family, i, (u, v), qi as f64) {
+                let i = band_first + u;
+                if let Some((z, dzdq)) = self.depth_at(family, v * self.width + u, (u, v), qi as f64) {
                     depth[i] = z as f32;
                     if weigh {
                         weight[i] = (1.0 / crate::num::max_f64(dzdq * dzdq, 1e-9)) as f32;
@@ -158,5 +165,33 @@ impl Triangulator {
                 }
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Triangulated in bands of rows, a family's depth and weights are the whole
+    /// frame's bit for bit.
+    #[test]
+    fn bands_of_rows_triangulate_as_the_whole_frame() {
+        let calib = Calibration::demo();
+        let spec = PatternSpec::generate(2, calib.projector.width, calib.projector.height, 10.0).unwrap();
+        let t = Triangulator::new(&calib, &spec);
+        let (w, h) = (calib.camera.width as usize, calib.camera.height as usize);
+        // A stripe coordinate that grows across the frame, with holes.
+        let q: Vec<f32> = (0..w * h).map(|i| if i % 7 == 3 { f32::NAN } else { 20.0 + (i % w) as f32 / 6.6 + (i / w) as f32 * 0.01 }).collect();
+        let (mut whole, mut whole_w) = (vec![0.0; w * h], vec![0.0; w * h]);
+        t.family_depth_into(0, &q, &mut whole, &mut whole_w);
+        assert!(whole.iter().filter(|z| z.is_finite()).count() > w * h / 2);
+        let rows = 37;
+        let (mut banded, mut banded_w) = (vec![0.0; w * h], vec![0.0; w * h]);
+        for (b, (qb, (d, wt))) in q.chunks(w * rows).zip(banded.chunks_mut(w * rows).zip(banded_w.chunks_mut(w * rows))).enumerate() {
+            t.family_depth_rows_into(0, b * rows, qb, d, wt);
+        }
+        let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        assert_eq!(bits(&banded), bits(&whole));
+        assert_eq!(bits(&banded_w), bits(&whole_w));
     }
 }
