@@ -606,8 +606,10 @@ impl Scanner {
         let coarse = if factor > 1 {
             let config = ScanConfig { decode_scale: DecodeScale::Full, ..config.clone() };
             let scanner = Scanner::new(spec.clone(), reduced_calibration(&calib, factor), config)?;
-            let table = Resample::new((w, h), scanner.size(), factor);
-            Some(Box::new(Coarse { factor, frame: Image::new(0, 0, [0; 3]), scanner, table }))
+            let (cw, ch) = scanner.size();
+            let table = Resample::new((w, h), (cw, ch), factor);
+            // The reduced frame at its size from the start: the first frame allocates nothing.
+            Some(Box::new(Coarse { factor, frame: Image::new(cw, ch, [0; 3]), scanner, table }))
         } else {
             None
         };
