@@ -180,12 +180,19 @@ mod native {
     /// through five samples: 1.0199, 1.0202, 1.0204, 1.0190, 1.0207; before: 1.0201,
     /// 1.0200, 1.0206, 1.0184, 1.0205), so the correct pixels are summed over three
     /// frames of independent noise (seeds 1 to 3) before they are compared.
+    /// When stripes began to be decoded through a misread boundary halfway between two
+    /// identified ones (`decode::misread_between`, 2026-12-07), direct estimation
+    /// gained twice what loggrad did on the blotchy texture (correct pixels over the
+    /// three frames: direct 753 122 to 755 116, loggrad 768 240 to 769 283), and the
+    /// ratio went from 1.0201, a ten-thousandth above the margin, to 1.0188; the
+    /// margin is now 1.5 %, still about ten times the spread of the ratio over noise
+    /// seeds. (Paper: 1.0100 to 1.0074; sphere 1.0118 to 1.0108.)
     #[test]
     fn loggrad_decodes_more_than_direct_on_coloured_scenes() {
         let correct = |scene: &str, filter: FilterMode| -> f64 {
             (1..=3).map(|seed| evaluate(scene, 2, filter, &Calibration::demo(), seed).unwrap().merged.correct as f64).sum()
         };
-        for (scene, margin) in [("paper", 1.0), ("sphere", 1.0), ("textured", 1.02)] {
+        for (scene, margin) in [("paper", 1.0), ("sphere", 1.0), ("textured", 1.015)] {
             let direct = correct(scene, FilterMode::Direct);
             let loggrad = correct(scene, FilterMode::LogGrad);
             eprintln!("{scene}: loggrad / direct = {:.4} (correct pixels over three frames: {loggrad} / {direct})", loggrad / direct);
