@@ -44,7 +44,9 @@
 # within a quarter of a stripe), the hand and Zion give no estimate and scan with none.
 # On 2026-12-07 the tingck frames are decoded at half the scale (a projector pixel covers
 # about 5 camera pixels; `scan --decode-scale`, default auto): wall 42.4 % (loggrad),
-# 52.1 % (--crosstalk frame), hand 15.2 %; Zion is unchanged (its own scale).
+# 52.1 % (--crosstalk frame), hand 15.2 %; Zion is unchanged (its own scale). Later the
+# same day, with stripes decoded through a misread boundary halfway between identified
+# ones: wall 43.2 % (loggrad), 52.2 % (--crosstalk frame), hand 15.6 %, Zion 26.1 %.
 #
 # Needs: cargo, python3 (standard library only), git when MIRRORS holds git directories.
 set -euo pipefail
