@@ -827,39 +827,36 @@ impl Decoder {
             }
             let index = |s: usize| axis_index(axis, line, s, width);
             let lit = if dark_band { self.band_shows_stripes(linear, index, &a, &b, stripes) } else { lit_between(linear, index, a.pos, b.pos) };
-            // Each stripe between misread boundaries as a single one.
+            // Decoded in parts: one stripe a part through misread boundaries, else one.
+            let parts = if misread { stripes } else { 1 };
             let boundary = |k: i32| {
-                let pos = if k == 0 { a.pos } else if k == stripes { b.pos } else { edges[pair[0].index + k as usize].pos };
-                Edge { pos, id: a.id + k * step, ..a }
+                if k == 0 {
+                    a
+                } else if k == parts {
+                    b
+                } else {
+                    Edge { pos: edges[pair[0].index + k as usize].pos, id: a.id + k * step, ..a }
+                }
             };
             let shadowed = |k: i32| self.shadowed(linear, index, line_len, max_width / 3.0, &boundary(k), &boundary(k + 1));
-            if !lit || ((stripes == 1 || misread) && (0..stripes).any(shadowed)) {
+            if !lit || ((stripes == 1 || misread) && (0..parts).any(shadowed)) {
                 continue;
             }
-            // Across misread boundaries, from one to the next; else from `a` to `b`.
-            let (mut lo, mut lo_id) = (a.pos, a.id as f32);
-            let mut next_k = 1;
-            let hi = |k: usize| if misread && k < stripes as usize { edges[pair[0].index + k].pos } else { b.pos };
-            let mut hi_pos = hi(next_k);
-            let mut s = a.pos.ceil() as usize;
-            while (s as f32) < b.pos {
-                while (s as f32) >= hi_pos && hi_pos < b.pos {
-                    lo = hi_pos;
-                    lo_id = (a.id + next_k as i32 * step) as f32;
-                    next_k += 1;
-                    hi_pos = hi(next_k);
+            for k in 0..parts {
+                let (p, q) = (boundary(k), boundary(k + 1));
+                let mut s = p.pos.ceil() as usize;
+                while (s as f32) < q.pos {
+                    let (i, t) = (axis_index(axis, line, s, width), (s as f32 - p.pos) / (q.pos - p.pos));
+                    let v = p.id as f32 + (q.id - p.id) as f32 * t;
+                    let c = &mut out[i - at.base];
+                    if weak.is_none() {
+                        *c = v;
+                    } else if c.is_nan() {
+                        *c = v;
+                        chunk.weak.push(i as u32);
+                    }
+                    s += 1;
                 }
-                let hi_id = if hi_pos < b.pos { (a.id + next_k as i32 * step) as f32 } else { b.id as f32 };
-                let i = axis_index(axis, line, s, width);
-                let v = lo_id + (hi_id - lo_id) * ((s as f32 - lo) / (hi_pos - lo));
-                let q = &mut out[i - at.base];
-                if weak.is_none() {
-                    *q = v;
-                } else if q.is_nan() {
-                    *q = v;
-                    chunk.weak.push(i as u32);
-                }
-                s += 1;
             }
         }
         chunk.named = named;
