@@ -181,7 +181,7 @@ mod native {
     /// 1.0200, 1.0206, 1.0184, 1.0205), so the correct pixels are summed over three
     /// frames of independent noise (seeds 1 to 3) before they are compared.
     /// When stripes began to be decoded through a misread boundary halfway between two
-    /// identified ones (`decode::misread_between`, 2026-12-07), direct estimation
+    /// identified ones (`decode::misread_boundaries`, 2026-12-07), direct estimation
     /// gained twice what loggrad did on the blotchy texture (correct pixels over the
     /// three frames: direct 753 122 to 755 116, loggrad 768 240 to 769 283), and the
     /// ratio went from 1.0201, a ten-thousandth above the margin, to 1.0188; the
