@@ -1364,7 +1364,6 @@ pub const MISREAD_POSITION: f32 = 0.08;
 /// and `wide`: occluders/partial 0.49 % outliers, bag 65.6 -> 66.6 % coverage
 /// (67.4 % with six), bag/partial 64.6 -> 66.4 % (67.5 %), sphere/wide and textured/wide
 /// as with six.
-///
 pub const MISREAD_MAX_STRIPES: i32 = 2;
 
 /// Most stripes between two identified boundaries decoded through misread boundaries
@@ -1684,6 +1683,22 @@ mod tests {
         seg
     }
 
+    /// An identified edge (or -1) whose evidence reads red rising and nothing else, so
+    /// that no boundary between two of them is hidden from both.
+    fn red(pos: f32, id: i32) -> Edge {
+        Edge { mask: 1 << crate::segment::pack([1, 0, 0]), ..edge(pos, id) }
+    }
+
+    /// The stripe coordinates [`Decoder::stripe_coords_into`] gives the rows `lines`, each
+    /// `w` pixels of one grey, for family 0 of `spec` (identities increasing).
+    fn coords_of_rows(spec: &PatternSpec, w: usize, lines: Vec<Vec<Edge>>) -> Vec<f32> {
+        let n = lines.len();
+        let mut decoder = Decoder::new(spec, 0, true);
+        let mut out = vec![0.0; w * n];
+        decoder.stripe_coords_into(&rows(lines), &vec![[0.3f32; 3]; w * n], w, 100.0, &mut out);
+        out
+    }
+
     /// A slanted boundary with alternating errors of ±0.25 px is pulled onto its
     /// straight line (where neighbours exist on both sides), a boundary ending at a line
     /// keeps its position there, another identity at the same place takes no part, and
@@ -1925,18 +1940,13 @@ mod tests {
     #[test]
     fn stripes_are_decoded_through_a_misread_boundary_where_it_should_be() {
         let spec = PatternSpec::generate(1, 64, 16, 8.0).unwrap();
-        let mut decoder = Decoder::new(&spec, 0, true);
         let w = 40;
-        let read = |pos: f32, id: i32| Edge { mask: 1 << crate::segment::pack([1, 0, 0]), ..edge(pos, id) };
-        let seg = rows(vec![
-            vec![read(10.0, 3), edge(20.3, -1), read(30.0, 5)],
-            vec![read(10.0, 3), edge(22.0, -1), read(30.0, 5)],
-            vec![read(10.0, 3), edge(20.0, -1), edge(24.0, -1), read(30.0, 5)],
-            vec![read(0.0, 2), edge(10.0, -1), edge(20.0, -1), read(30.0, 5)],
+        let out = coords_of_rows(&spec, w, vec![
+            vec![red(10.0, 3), edge(20.3, -1), red(30.0, 5)],
+            vec![red(10.0, 3), edge(22.0, -1), red(30.0, 5)],
+            vec![red(10.0, 3), edge(20.0, -1), edge(24.0, -1), red(30.0, 5)],
+            vec![red(0.0, 2), edge(10.0, -1), edge(20.0, -1), red(30.0, 5)],
         ]);
-        let linear = vec![[0.3f32; 3]; w * 4];
-        let mut out = vec![0.0; w * 4];
-        decoder.stripe_coords_into(&seg, &linear, w, 100.0, &mut out);
         for s in 11..30 {
             let want = if (s as f32) < 20.3 { 3.0 + (s as f32 - 10.0) / 10.3 } else { 4.0 + (s as f32 - 20.3) / 9.7 };
             assert!((out[s] - want).abs() < 1e-5, "misread, pixel {s}: {}, want {want}", out[s]);
@@ -1955,18 +1965,13 @@ mod tests {
     fn stripes_are_decoded_through_misread_boundaries_among_texture_edges_between_stripes_as_wide() {
         // Stripes of 24 projector pixels: two are wider than a dark band is bridged.
         let spec = PatternSpec::generate(1, 320, 16, 24.0).unwrap();
-        let mut decoder = Decoder::new(&spec, 0, true);
         let w = 60;
-        let read = |pos: f32, id: i32| Edge { mask: 1 << crate::segment::pack([1, 0, 0]), ..edge(pos, id) };
-        let seg = rows(vec![
-            vec![read(0.0, 2), read(10.0, 3), edge(20.3, -1), edge(25.0, -1), read(30.0, 5), read(40.0, 6)],
-            vec![read(0.0, 2), read(10.0, 3), edge(20.3, -1), edge(25.0, -1), read(30.0, 5), read(37.0, 6)],
-            vec![read(0.0, 2), read(10.0, 3), edge(22.0, -1), edge(25.0, -1), read(30.0, 5), read(40.0, 6)],
-            vec![read(0.0, 2), read(10.0, 3), edge(14.0, -1), edge(20.2, -1), edge(29.9, -1), read(40.0, 6), read(50.0, 7)],
+        let out = coords_of_rows(&spec, w, vec![
+            vec![red(0.0, 2), red(10.0, 3), edge(20.3, -1), edge(25.0, -1), red(30.0, 5), red(40.0, 6)],
+            vec![red(0.0, 2), red(10.0, 3), edge(20.3, -1), edge(25.0, -1), red(30.0, 5), red(37.0, 6)],
+            vec![red(0.0, 2), red(10.0, 3), edge(22.0, -1), edge(25.0, -1), red(30.0, 5), red(40.0, 6)],
+            vec![red(0.0, 2), red(10.0, 3), edge(14.0, -1), edge(20.2, -1), edge(29.9, -1), red(40.0, 6), red(50.0, 7)],
         ]);
-        let linear = vec![[0.3f32; 3]; w * 4];
-        let mut out = vec![0.0; w * 4];
-        decoder.stripe_coords_into(&seg, &linear, w, 100.0, &mut out);
         let through = |s: usize, knots: &[(f32, f32)]| {
             let k = knots.windows(2).find(|p| (s as f32) < p[1].0).unwrap_or(&knots[knots.len() - 2..]);
             k[0].1 + (s as f32 - k[0].0) / (k[1].0 - k[0].0) * (k[1].1 - k[0].1)
