@@ -3,6 +3,9 @@
 //! the two that run the slow reference or render many VGA frames (native only: in a
 //! debug wasm build they take minutes).
 
+// The helpers below serve those native-only tests too.
+#![cfg_attr(target_arch = "wasm32", allow(dead_code))]
+
 #[macro_use]
 mod support;
 
