@@ -431,6 +431,33 @@ impl PeakShape {
         }
     }
 
+    /// Samples either side of a gradient sample that its derivative reads: 1, 2 or 3.
+    fn stencil(self) -> usize {
+        match self {
+            PeakShape::Sharp => 1,
+            PeakShape::Broad => 2,
+            PeakShape::Soft => 3,
+        }
+    }
+
+    /// The shape a peak found at sample `s` of a line of `len` samples is read with:
+    /// this one, or a narrower one where this one's derivative would leave the line
+    /// anywhere the peak can be climbed to and fitted. Left as it was, the gradient
+    /// is 0 past the stencil's reach, and the fit of a boundary within a few pixels of
+    /// the frame's edge leaned inwards (a soft line's boundary 2.2 pixels from the
+    /// edge was placed at 3.3, a fifth of a stripe).
+    fn within(self, s: usize, len: usize) -> Self {
+        let mut shape = self;
+        while shape != PeakShape::Sharp {
+            let need = shape.climb() + BROAD_FIT_HALF + shape.stencil();
+            if s >= need && s + need < len {
+                break;
+            }
+            shape = if shape == PeakShape::Soft { PeakShape::Broad } else { PeakShape::Sharp };
+        }
+        shape
+    }
+
     /// What the derivative's smoothing adds to a peak's variance (pixels²): the
     /// 5-tap derivative is the central difference after (1, 2, 1) / 4, the 7-tap one
     /// the central difference after (6, 4, 8, 4, 6) / 28.
@@ -680,10 +707,13 @@ fn segment_line(input: &LineInput, line: usize, edges: &mut Vec<Edge>, sc: &mut 
             // deviation for the patterns' steps of 0.35 to 1, a pixel for a soft
             // projector's). See [`subpixel_peak`].
             let (p, offset, var) = subpixel_peak(&sc.light, &sc.level, clipped, s, len, shape);
+            if offset.is_nan() {
+                // Its peak is at the end of the line: no place to read.
+                s += 1;
+                continue;
+            }
             edges.push(Edge { pos: p as f32 + offset, code: NO_CODE, mask: 0, run: run_id, id: -1, tentative: Tentative::NONE });
-            // As the central difference would see it (less what the smoothed
-            // derivative adds).
-            sc.peaks.push((s, var - shape.smoothing_var()));
+            sc.peaks.push((s, var));
         }
         s += 1;
     }
@@ -692,7 +722,9 @@ fn segment_line(input: &LineInput, line: usize, edges: &mut Vec<Edge>, sc: &mut 
     if placed != shape {
         for (e, &(s, _)) in edges.iter_mut().zip(&sc.peaks) {
             let (p, offset, _) = subpixel_peak(&sc.light, &sc.level, clipped, s, len, placed);
-            e.pos = p as f32 + offset;
+            if !offset.is_nan() {
+                e.pos = p as f32 + offset;
+            }
         }
     }
     classify(edges, sc, period, unlit);
@@ -867,7 +899,11 @@ pub const CLIPPED_CLEAN_LEVEL: f32 = 0.1;
 /// family and from 6 % to 5 % in the other. On a broad or soft line the Gaussian is
 /// fitted to five samples, not three ([`broad_fit`]). Returns the
 /// sample, the offset from it (within ±0.5) and the peak's variance (pixels², from
-/// the second difference of the logs, or the fit's; NaN where they have none).
+/// the second difference of the logs, or the fit's, as the central difference would
+/// see it: less what the smoothed derivative adds; NaN where they have none). Within
+/// a few samples of either end of the line a narrower derivative is taken
+/// ([`PeakShape::within`]); a peak on the second or the last but one sample has no
+/// place (the offset is NaN).
 /// `clipped`, the line's pixel flags where the frame's colour is at full resolution,
 /// lets channels clipped at the boundary give way to an unclipped one
 /// ([`CLIPPED_WEIGHT`]).
@@ -896,11 +932,8 @@ fn subpixel_peak(light: &[Vec<f32>; 3], level: &[Vec<f32>; 3], clipped: Option<&
             }
         }
     }
-    let reach = match shape {
-        PeakShape::Sharp => 1,
-        PeakShape::Broad => 2,
-        PeakShape::Soft => 3,
-    };
+    let shape = shape.within(s, len);
+    let reach = shape.stencil();
     // The weighted squared gradient of the linear light at sample t (0 where its
     // stencil leaves the line), the channels added in order.
     let gradient = |t: usize| -> f32 {
@@ -939,10 +972,17 @@ fn subpixel_peak(light: &[Vec<f32>; 3], level: &[Vec<f32>; 3], clipped: Option<&
             break;
         }
     }
+    // A peak on the first or the last sample whose gradient can be taken (the
+    // line's second or last but one) has its fit cut off by the end: half of the
+    // peak may be past the frame's edge, and the boundary could be anywhere within a
+    // pixel or two of it. No edge is placed there.
+    if p < 2 || p + 2 >= len {
+        return (p, f32::NAN, f32::NAN);
+    }
     if shape != PeakShape::Sharp && p >= BROAD_FIT_HALF && p + BROAD_FIT_HALF < len {
         let (before, after) = (gradient(p - BROAD_FIT_HALF), gradient(p + BROAD_FIT_HALF));
         if let Some(fit) = broad_fit([before, a, b, c, after]) {
-            return (p, fit.0, fit.1);
+            return (p, fit.0, fit.1 - shape.smoothing_var());
         }
     }
     if a > 0.0 && b > 0.0 && c > 0.0 {
@@ -950,7 +990,7 @@ fn subpixel_peak(light: &[Vec<f32>; 3], level: &[Vec<f32>; 3], clipped: Option<&
         let den = l[0] - 2.0 * l[1] + l[2];
         if den < 0.0 {
             // A Gaussian's log has second difference -2 / variance.
-            return (p, (0.5 * (l[0] - l[2]) / den).clamp(-0.5, 0.5), -2.0 / den);
+            return (p, (0.5 * (l[0] - l[2]) / den).clamp(-0.5, 0.5), -2.0 / den - shape.smoothing_var());
         }
         return (p, 0.0, f32::NAN);
     }
@@ -2084,16 +2124,45 @@ mod tests {
     /// were 0.165 off.
     #[test]
     fn a_soft_projector_s_boundaries_are_placed_within_an_eighth_of_a_pixel() {
-        let (lines, len, width, sigma) = (200, 120, 7.0f32, 2.0f32);
+        let (lines, width) = (200, 7.0f32);
         let bounds: Vec<f32> = (0..15).map(|k| 8.3 + width * k as f32).collect();
-        // The 8 colours of levels 0.35 and 1, each stripe differing from the last.
+        let errors = soft_boundary_errors(lines, 120, &bounds);
+        let n = errors.len();
+        assert!(n > 14 * lines, "{n} boundaries found near the true ones");
+        let rms = (errors.iter().map(|(_, e)| e * e).sum::<f32>() / n as f32).sqrt();
+        assert!(rms < 0.13, "boundaries {rms:.3} px RMS from the true ones");
+    }
+
+    /// Boundaries of a soft line two or three pixels from either end are placed as
+    /// well as those inside: the smoothed derivative would leave the line there, and a
+    /// fit to a gradient cut off at the end leaned inwards by a pixel.
+    #[test]
+    fn a_soft_line_s_boundaries_beside_its_ends_are_placed_within_a_quarter_of_a_pixel() {
+        let (lines, len, width) = (200, 100, 7.0f32);
+        let mut bounds: Vec<f32> = (0..14).map(|k| 2.3 + width * k as f32).collect();
+        bounds.push(len as f32 - 3.2);
+        let errors = soft_boundary_errors(lines, len, &bounds);
+        for end in [bounds[0], bounds[14]] {
+            let near: Vec<f32> = errors.iter().filter(|&&(b, _)| b == end).map(|&(_, e)| e).collect();
+            assert!(near.len() > lines / 2, "{} of {lines} lines found the boundary at {end}", near.len());
+            let rms = (near.iter().map(|e| e * e).sum::<f32>() / near.len() as f32).sqrt();
+            assert!(rms < 0.25, "the boundary at {end}: {rms:.3} px RMS from its place");
+        }
+    }
+
+    /// Segments `lines` lines of `len` samples with stripes of the 8 colours (levels
+    /// 0.35 and 1, each differing from the last) between `bounds`, blurred as by a soft
+    /// projector (a Gaussian of 2 pixels), with noise, each line's stripes shifted by a
+    /// different fraction of a pixel. Returns each edge within 2 pixels of a true
+    /// boundary as that boundary (unshifted) and the edge's distance from it.
+    fn soft_boundary_errors(lines: usize, len: usize, bounds: &[f32]) -> Vec<(f32, f32)> {
+        let (width, sigma) = (7.0f32, 2.0f32);
         let colour = |k: usize| (k * 5 + 1) % 8;
         let level = |c: usize, ch: usize| if c >> ch & 1 != 0 { 1.0 } else { 0.35 };
         let mut restored = Restored::new(len, lines);
         let mut linear = vec![[0f32; 3]; len * lines];
         let mut state = 7u32;
         for line in 0..lines {
-            // Each line's stripes shifted by a different fraction of a pixel.
             let shift = line as f32 * 0.37 % 1.0;
             for x in 0..len {
                 for ch in 0..3 {
@@ -2114,20 +2183,17 @@ mod tests {
         }
         let mut seg = Segmentation::default();
         seg.run(&restored, &linear, &vec![0; len * lines], ScanAxis::Rows, width, ChromaPairs::default());
-        let (mut sum, mut n) = (0f32, 0usize);
+        let mut errors = Vec::new();
         for (line, edges) in seg.lines.iter().enumerate() {
             let shift = line as f32 * 0.37 % 1.0;
             for e in edges {
-                let err = bounds.iter().map(|&b| e.pos - b - shift).fold(f32::INFINITY, |m, d| if d.abs() < m.abs() { d } else { m });
+                let (b, err) = bounds.iter().map(|&b| (b, e.pos - b - shift)).fold((0.0, f32::INFINITY), |m, d| if d.1.abs() < m.1.abs() { d } else { m });
                 if err.abs() < 2.0 {
-                    sum += err * err;
-                    n += 1;
+                    errors.push((b, err));
                 }
             }
         }
-        assert!(n > 14 * lines, "{n} boundaries found near the true ones");
-        let rms = (sum / n as f32).sqrt();
-        assert!(rms < 0.13, "boundaries {rms:.3} px RMS from the true ones");
+        errors
     }
 
     /// The three-lane encoding gives `encode`'s values bit for bit, out of range and
