@@ -10,7 +10,7 @@
 #[macro_use]
 mod support;
 
-// In a worker: one call scans nine hard scenes, longer than the test runner waits for
+// In a worker: one call scans twenty hard scenes, longer than the test runner waits for
 // a page whose main thread is busy (on a loaded machine its poll timed out).
 #[cfg(target_arch = "wasm32")]
 wasm_bindgen_test::wasm_bindgen_test_configure!(run_in_dedicated_worker);
@@ -73,40 +73,44 @@ use stripelight::eval::hard::{condition, HardEval};
 /// derivative on lines broader still (`SOFT_PEAK_VAR`) took wall/soft to 99.6 % with
 /// 0.06 % outliers and skin/soft to 90.9 % with 0.41 %.
 const MEASURED: &[(&str, &str, f64, f64)] = &[
-    ("colorchecker", "default", 0.9127, 0.0009),
-    ("sphere-dye", "default", 0.9220, 0.0012),
-    ("paper-dye", "default", 0.9648, 0.0020),
-    ("bag", "default", 0.6560, 0.0012),
+    ("colorchecker", "default", 0.9154, 0.0009),
+    ("sphere-dye", "default", 0.9248, 0.0010),
+    ("paper-dye", "default", 0.9668, 0.0020),
+    ("bag", "default", 0.6667, 0.0011),
     // 4:2:0 and JPEG: 1.23 % outliers before the boundaries were refined with the
     // frame's luma (and a chain's one thrown position mended).
-    ("paper", "webcam", 0.9700, 0.0034),
-    ("skin", "clipped", 0.9683, 0.0011),
-    ("wall", "partial", 0.9995, 0.0000),
-    ("occluders", "world", 0.9588, 0.0055),
+    ("paper", "webcam", 0.9708, 0.0032),
+    ("skin", "clipped", 0.9722, 0.0009),
+    ("wall", "partial", 0.9996, 0.0000),
+    ("occluders", "world", 0.9672, 0.0054),
     // Partial light beside a cast shadow: with the extension's light read from the new
     // stripe's second pixel but its shadow test still from the first (half lit by the
     // blur), the stripes were extended into the cylinder's shadow (0.61 % outliers).
-    ("textured", "world", 0.9583, 0.0023),
+    ("textured", "world", 0.9629, 0.0024),
     // 25-pixel stripes: a cast shadow between two stripes' edges was bridged as one
     // stripe (15.8 % outliers before the decoder compared a stripe's light with its
     // neighbours', 4.2 % before it compared the stripe's width with theirs).
-    ("occluders", "wide", 0.9624, 0.0045),
+    ("occluders", "wide", 0.9623, 0.0042),
     // 3-pixel stripes: 58.3 % coverage and 1.77 % outliers before a boundary's
     // strength stopped having to top the strength two pixels out at that width.
-    ("wood", "narrow", 0.9645, 0.0009),
+    ("wood", "narrow", 0.9651, 0.0008),
     // Grain along one family's stripes: 92.0 % before the regions where the families
     // disagree were settled by the family their border agrees with.
-    ("wood", "default", 0.9624, 0.0011),
+    ("wood", "default", 0.9641, 0.0011),
     // Clipped bright stripes on wood: 94.3 % before a disputed region was settled where
     // the other family agrees with up to a tenth of its border.
-    ("wood", "clipped", 0.9505, 0.0018),
+    ("wood", "clipped", 0.9633, 0.0013),
     // Dyes through 4:2:0 and JPEG: 72.0 % and 1.53 % outliers before chains.
-    ("paper-dye", "webcam", 0.9361, 0.0038),
+    ("paper-dye", "webcam", 0.9407, 0.0036),
     // A projector out of focus (stripes without a flat top): 92.7 % and 2.17 %
     // outliers on the wall, 79.0 % and 2.74 % on skin, before the boundaries of broad
     // lines were placed with a smoothed derivative and a Gaussian.
-    ("wall", "soft", 0.9958, 0.0006),
-    ("skin", "soft", 0.9087, 0.0041),
+    ("wall", "soft", 0.9970, 0.0004),
+    ("skin", "soft", 0.9103, 0.0036),
+    // A soft line's boundaries beside the frame's edge: 0.51 % outliers before they
+    // were placed with a derivative that stays on the line, and none where the edge
+    // cuts the gradient's peak (`PeakShape::within` in `segment.rs`).
+    ("textured", "soft", 0.8822, 0.0049),
     // 25-pixel stripes on a coloured check: more edges of the texture than stripe
     // boundaries, and each left the stripe it cut short to the extensions from its
     // ends; 72.0 % before a stripe was decoded across them where the stripes beside it
@@ -115,17 +119,17 @@ const MEASURED: &[(&str, &str, f64, f64)] = &[
     // identified twice on a line was settled (`settle_repeated_identities`), 85.5 %
     // before stripes were decoded through misread boundaries among those edges
     // (`MISREAD_TESTED_MAX_STRIPES`).
-    ("textured", "wide", 0.8743, 0.0043),
+    ("textured", "wide", 0.8742, 0.0041),
     // 25-pixel stripes on a sphere of saturated dyes: a dye's edge a few pixels from a
     // boundary took that boundary's identity (by its chain) while the boundary kept it,
     // and the stripe before ended short; 0.53 % outliers before the edge that leaves
     // the stripes either side less equally wide lost it (`settle_repeated_identities`
     // in `decode.rs`).
-    ("sphere", "wide", 0.8894, 0.0033),
+    ("sphere", "wide", 0.8947, 0.0041),
     // Raised exposure through a tone curve's highlight shoulder: 75.7 % and 0.47 %
     // outliers before the camera's response was measured from the white card and the
     // codes read through it (`calib::estimate_response`).
-    ("paper-dye", "shoulder", 0.9270, 0.0028),
+    ("paper-dye", "shoulder", 0.9365, 0.0025),
 ];
 
 both_targets! {
