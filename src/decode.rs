@@ -912,9 +912,10 @@ impl Decoder {
 /// How far past a decoded stretch's last boundary, in widths of its last stripes
 /// ([`extension_width`]), the stretch is extended into the next stripe (whose far
 /// boundary was not identified: seen without an edge, with too little evidence, or cut
-/// off by a shadow, an occluding edge or the end of the light). Each pixel of the stretch's last stripe is
-/// interpolated between its two boundaries; the pixels beyond, in the next stripe, got
-/// nothing, which left the last stripe or two before every gap empty. Extended, they
+/// off by a shadow, an occluding edge or the end of the light). Each pixel of the
+/// stretch's last stripe is interpolated between its two boundaries; the pixels beyond,
+/// in the next stripe, got nothing, which left the last stripe or two before every gap
+/// empty. Extended, they
 /// take the coordinate the last stripes' width predicts, up to 0.85 of that width
 /// (short of where the unseen boundary is expected), while they keep the light
 /// ([`EXTEND_LIGHT_RATIO`]) and the colour ([`EXTEND_CHROMA`]) of the next stripe's

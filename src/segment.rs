@@ -706,14 +706,11 @@ fn segment_line(input: &LineInput, line: usize, edges: &mut Vec<Edge>, sc: &mut 
             // while its log gradient leans to the darker side (by 0.4 of the blur's
             // deviation for the patterns' steps of 0.35 to 1, a pixel for a soft
             // projector's). See [`subpixel_peak`].
-            let (p, offset, var) = subpixel_peak(&sc.light, &sc.level, clipped, s, len, shape);
-            if offset.is_nan() {
-                // Its peak is at the end of the line: no place to read.
-                s += 1;
-                continue;
+            // None where its peak is at the end of the line: no place to read.
+            if let Some((p, offset, var)) = subpixel_peak(&sc.light, &sc.level, clipped, s, len, shape) {
+                    edges.push(Edge { pos: p as f32 + offset, code: NO_CODE, mask: 0, run: run_id, id: -1, tentative: Tentative::NONE });
+                sc.peaks.push((s, var));
             }
-            edges.push(Edge { pos: p as f32 + offset, code: NO_CODE, mask: 0, run: run_id, id: -1, tentative: Tentative::NONE });
-            sc.peaks.push((s, var));
         }
         s += 1;
     }
@@ -721,8 +718,7 @@ fn segment_line(input: &LineInput, line: usize, edges: &mut Vec<Edge>, sc: &mut 
     let placed = sc.shape;
     if placed != shape {
         for (e, &(s, _)) in edges.iter_mut().zip(&sc.peaks) {
-            let (p, offset, _) = subpixel_peak(&sc.light, &sc.level, clipped, s, len, placed);
-            if !offset.is_nan() {
+            if let Some((p, offset, _)) = subpixel_peak(&sc.light, &sc.level, clipped, s, len, placed) {
                 e.pos = p as f32 + offset;
             }
         }
@@ -903,11 +899,11 @@ pub const CLIPPED_CLEAN_LEVEL: f32 = 0.1;
 /// see it: less what the smoothed derivative adds; NaN where they have none). Within
 /// a few samples of either end of the line a narrower derivative is taken
 /// ([`PeakShape::within`]); a peak on the second or the last but one sample has no
-/// place (the offset is NaN).
+/// place (None).
 /// `clipped`, the line's pixel flags where the frame's colour is at full resolution,
 /// lets channels clipped at the boundary give way to an unclipped one
 /// ([`CLIPPED_WEIGHT`]).
-fn subpixel_peak(light: &[Vec<f32>; 3], level: &[Vec<f32>; 3], clipped: Option<&[PixelFlags]>, s: usize, len: usize, shape: PeakShape) -> (usize, f32, f32) {
+fn subpixel_peak(light: &[Vec<f32>; 3], level: &[Vec<f32>; 3], clipped: Option<&[PixelFlags]>, s: usize, len: usize, shape: PeakShape) -> Option<(usize, f32, f32)> {
     // Each channel weighted as in the edge strength, by how far its brighter side
     // (2 samples out) is above the noise: a channel near the floor on both sides has
     // a restored signal that is mostly noise, and a soft edge's peak is low enough
@@ -977,12 +973,12 @@ fn subpixel_peak(light: &[Vec<f32>; 3], level: &[Vec<f32>; 3], clipped: Option<&
     // peak may be past the frame's edge, and the boundary could be anywhere within a
     // pixel or two of it. No edge is placed there.
     if p < 2 || p + 2 >= len {
-        return (p, f32::NAN, f32::NAN);
+        return None;
     }
     if shape != PeakShape::Sharp && p >= BROAD_FIT_HALF && p + BROAD_FIT_HALF < len {
         let (before, after) = (gradient(p - BROAD_FIT_HALF), gradient(p + BROAD_FIT_HALF));
         if let Some(fit) = broad_fit([before, a, b, c, after]) {
-            return (p, fit.0, fit.1 - shape.smoothing_var());
+            return Some((p, fit.0, fit.1 - shape.smoothing_var()));
         }
     }
     if a > 0.0 && b > 0.0 && c > 0.0 {
@@ -990,12 +986,12 @@ fn subpixel_peak(light: &[Vec<f32>; 3], level: &[Vec<f32>; 3], clipped: Option<&
         let den = l[0] - 2.0 * l[1] + l[2];
         if den < 0.0 {
             // A Gaussian's log has second difference -2 / variance.
-            return (p, (0.5 * (l[0] - l[2]) / den).clamp(-0.5, 0.5), -2.0 / den - shape.smoothing_var());
+            return Some((p, (0.5 * (l[0] - l[2]) / den).clamp(-0.5, 0.5), -2.0 / den - shape.smoothing_var()));
         }
-        return (p, 0.0, f32::NAN);
+        return Some((p, 0.0, f32::NAN));
     }
     let den = a - 2.0 * b + c;
-    (p, if den < 0.0 { (0.5 * (a - c) / den).clamp(-0.5, 0.5) } else { 0.0 }, f32::NAN)
+    Some((p, if den < 0.0 { (0.5 * (a - c) / den).clamp(-0.5, 0.5) } else { 0.0 }, f32::NAN))
 }
 
 /// `out[i] = exp(x[i])`, four samples at a time (the same four-lane exponential for
@@ -2029,7 +2025,7 @@ mod tests {
             let errs: Vec<f32> = bounds[2..58]
                 .iter()
                 .map(|&b| {
-                    let (p, offset, _) = subpixel_peak(&light, &level, None, b.round() as usize, len, shape);
+                    let (p, offset, _) = subpixel_peak(&light, &level, None, b.round() as usize, len, shape).expect("a peak inside the line");
                     p as f32 + offset - b
                 })
                 .collect();
@@ -2075,7 +2071,7 @@ mod tests {
         let s = (1..len - 1).max_by(|&i, &j| (log[i - 1] - log[i + 1]).total_cmp(&(log[j - 1] - log[j + 1]))).unwrap_or(0);
         assert!(s as f32 - b >= 1.5, "the log strength peaks at {s}, the boundary is at {b}");
         let place = |shape: PeakShape| {
-            let (p, offset, _) = subpixel_peak(&level, &level, None, s, len, shape);
+            let (p, offset, _) = subpixel_peak(&level, &level, None, s, len, shape).expect("a peak inside the line");
             p as f32 + offset
         };
         let (soft, broad) = (place(PeakShape::Soft), place(PeakShape::Broad));
@@ -2099,7 +2095,7 @@ mod tests {
             pixel_flags_into(&frame, &linear, None, &mut flags);
             assert!(flags[..12].iter().all(|&f| f & 1 != 0) && flags[17..].iter().all(|&f| f & 0x07 == 0), "red clipped on the left only");
             let level: [Vec<f32>; 3] = std::array::from_fn(|ch| linear.iter().map(|p| p[ch]).collect());
-            let (p, offset, _) = subpixel_peak(&level, &level, Some(&flags), x0.round() as usize, len, PeakShape::Sharp);
+            let (p, offset, _) = subpixel_peak(&level, &level, Some(&flags), x0.round() as usize, len, PeakShape::Sharp).expect("a peak inside the line");
             let pos = p as f32 + offset;
             assert!((pos - x0).abs() < 0.2, "edge at {x0}, placed at {pos}");
         }
