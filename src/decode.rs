@@ -851,12 +851,14 @@ impl Decoder {
             if !lit || ((stripes == 1 || misread) && (0..parts).any(shadowed)) {
                 continue;
             }
+            // One stripe bends with the stripes beside it; parts of a misread stretch do not.
+            let tangents = if stripes == 1 && parts == 1 { stripe_tangents(&named, k, step) } else { [1.0; 2] };
             for k in 0..parts {
                 let (p, q) = (boundary(k), boundary(k + 1));
                 let mut s = p.pos.ceil() as usize;
                 while (s as f32) < q.pos {
                     let (i, t) = (axis_index(axis, line, s, width), (s as f32 - p.pos) / (q.pos - p.pos));
-                    let v = p.id as f32 + (q.id - p.id) as f32 * t;
+                    let v = p.id as f32 + (q.id - p.id) as f32 * across_stripe(t, tangents);
                     let c = &mut out[i - at.base];
                     if weak.is_none() {
                         *c = v;
@@ -1299,6 +1301,51 @@ fn widths_beside(named: &[Named], k: usize, step: i32) -> (Option<f32>, Option<f
     (before, after)
 }
 
+/// Most a stripe beside a decoded stripe may differ from it in width, as a factor
+/// either way, for [`stripe_tangents`] to bend the decoded stripe's coordinates with
+/// it; past that, the neighbour is taken for another surface (across a depth edge or
+/// a crease sharper than a stripe can follow) and that side stays straight.
+pub const BEND_WIDTH_RATIO: f32 = 1.5;
+
+/// The stripe width, camera pixels, at which [`stripe_tangents`] bends a stripe's
+/// coordinates half as much as the widths beside it say: the error of a straight line
+/// across a curved surface grows with the square of the stripe's width, the noise of
+/// its two boundaries does not, so narrow stripes stay nearly straight (a 7-pixel
+/// stripe takes a tenth of the bend, a 25-pixel one 95 %).
+pub const BEND_HALF_WIDTH: f32 = 12.0;
+
+/// The tangents of the stripe coordinate at the two boundaries of the stripe between
+/// `named[k]` and `named[k + 1]` (consecutive identities `step` apart), in stripes per
+/// stripe width, for [`across_stripe`]. Between two boundaries the coordinate used to
+/// be a straight line; on a surface that curves, or creases, inside a stripe, the
+/// stripes beside it are wider or narrower than it, and a straight line through 25
+/// camera pixels is several millimetres off in its middle (crumpled paper under
+/// `wide`: most of its 2.7 % outliers, rising from the boundaries to the stripe's
+/// middle). Each boundary's tangent is that of the line through the boundaries either
+/// side of it (Catmull-Rom: twice the width over the sum of the two widths), where the
+/// stripe beside is identified in the same run and within [`BEND_WIDTH_RATIO`], else 1
+/// (straight); then drawn toward 1 for narrow stripes ([`BEND_HALF_WIDTH`]).
+fn stripe_tangents(named: &[Named], k: usize, step: i32) -> [f32; 2] {
+    let w = named[k + 1].edge.pos - named[k].edge.pos;
+    let (before, after) = widths_beside(named, k, step);
+    let (w4, h4) = ((w * w) * (w * w), BEND_HALF_WIDTH.powi(4));
+    let bend = w4 / (w4 + h4);
+    let tangent = |beside: Option<f32>| match beside {
+        Some(x) if x <= BEND_WIDTH_RATIO * w && w <= BEND_WIDTH_RATIO * x => 1.0 + bend * (2.0 * w / (x + w) - 1.0),
+        _ => 1.0,
+    };
+    [tangent(before), tangent(after)]
+}
+
+/// How far across a stripe (0 at its first boundary, 1 at its second) the pixel at
+/// fraction `t` of its width is: the cubic Hermite curve with the boundaries'
+/// `tangents` ([`stripe_tangents`]); with both 1, `t` itself. With tangents in (0, 2),
+/// as Catmull-Rom's are, the curve rises monotonically.
+fn across_stripe(t: f32, [m0, m1]: [f32; 2]) -> f32 {
+    let (t2, t3) = (t * t, t * t * t);
+    (t3 - 2.0 * t2 + t) * m0 + (3.0 * t2 - 2.0 * t3) + (t3 - t2) * m1
+}
+
 /// Most the width of a stripe with edges without an identity inside it may differ from
 /// each identified stripe beside it, as a share of that stripe's width, for the pixels
 /// between its boundaries to be decoded across those edges.
@@ -1728,6 +1775,13 @@ mod tests {
         Edge { pos, code: NO_CODE, mask: ANY_BOUNDARY, run: 0, id, tentative: Tentative::NONE }
     }
 
+    /// The identified edges of a line, as [`Decoder::line_coords`] pairs them.
+    fn named(edges: &[Edge]) -> Vec<Named> {
+        let mut out = Vec::new();
+        named_edges(edges, None, &mut out);
+        out
+    }
+
     /// A segmentation whose scan lines are the rows `lines`.
     fn rows(lines: Vec<Vec<Edge>>) -> Segmentation {
         let mut seg = Segmentation::default();
@@ -1911,6 +1965,47 @@ mod tests {
         assert_eq!(extension_width(&line, 3, 1, 1), None);
     }
 
+    /// Across a wide stripe on a curved surface the coordinate bends with the widths of
+    /// the stripes beside it: where the boundaries lie on a smooth curve, the curve
+    /// through them is several times closer than the straight line between two, and it
+    /// rises monotonically. A narrow stripe stays nearly straight; a neighbour more
+    /// than [`BEND_WIDTH_RATIO`] wider or narrower, or none, leaves its side straight.
+    #[test]
+    fn a_wide_stripe_s_coordinate_bends_with_the_stripes_beside_it() {
+        // Boundary j at x = 100 + 25 j + 3 j²: the stripes widen by 6 px each.
+        let at = |q: f32| 100.0 + 25.0 * q + 3.0 * q * q;
+        let line = named(&(0..6).map(|j| edge(at(j as f32), j)).collect::<Vec<_>>());
+        let k = 2;
+        let (a, b) = (line[k].edge.pos, line[k + 1].edge.pos);
+        let tangents = stripe_tangents(&line, k, 1);
+        let (mut straight, mut bent, mut last) = (0.0f32, 0.0f32, 0.0f32);
+        for s in (a.ceil() as usize)..(b.ceil() as usize) {
+            let t = (s as f32 - a) / (b - a);
+            // The true coordinate at pixel s: the root of at(q) = s.
+            let truth = (-25.0 + (625.0 + 12.0 * (s as f32 - 100.0)).sqrt()) / 6.0 - k as f32;
+            let v = across_stripe(t, tangents);
+            assert!(v >= last, "monotonic at {s}");
+            last = v;
+            straight = straight.max((t - truth).abs());
+            bent = bent.max((v - truth).abs());
+        }
+        assert!(straight > 0.015, "the straight line is off by {straight} of a stripe");
+        assert!(bent < straight / 4.0, "bent {bent} against straight {straight}");
+        // Both tangents 1: the straight line.
+        assert!((across_stripe(0.3, [1.0, 1.0]) - 0.3).abs() < 1e-6);
+        // 7-pixel stripes: about a tenth of Catmull-Rom's bend.
+        let narrow = named(&[edge(100.0, 0), edge(106.5, 1), edge(113.5, 2), edge(121.0, 3)]);
+        let [m0, m1] = stripe_tangents(&narrow, 1, 1);
+        assert!(m0 > 1.0 && m0 - 1.0 < 0.15 * (2.0 * 7.0 / 13.5 - 1.0), "{m0}");
+        assert!(m1 < 1.0 && 1.0 - m1 < 0.15 * (1.0 - 2.0 * 7.0 / 14.5), "{m1}");
+        // A neighbour twice as wide (another surface), and none: straight on that side.
+        let broken = named(&[edge(100.0, 0), edge(150.0, 1), edge(175.0, 2), edge(203.0, 3)]);
+        let [m0, m1] = stripe_tangents(&broken, 1, 1);
+        assert_eq!(m0, 1.0);
+        assert!(m1 < 1.0, "{m1}");
+        assert_eq!(stripe_tangents(&broken, 0, 1)[0], 1.0);
+    }
+
     /// A line between two aligned lines takes the identities they agree on where its
     /// own transition fits them; an edge whose neighbours both are unidentified stays
     /// so; an edge whose neighbours disagree, or where only one is identified, or
@@ -1938,11 +2033,6 @@ mod tests {
     /// beside it is held to two thirds of the widest stretch.
     #[test]
     fn a_stripe_much_wider_than_its_neighbour_is_not_decoded() {
-        let named = |edges: &[Edge]| {
-            let mut out = Vec::new();
-            named_edges(edges, None, &mut out);
-            out
-        };
         let line = named(&[edge(10.0, 3), edge(20.0, 4), edge(31.0, 5), edge(55.0, 6), edge(66.0, -1), edge(80.0, 9), edge(100.0, 10)]);
         assert!(!wider_than_beside(&line, 0, 1, 30.0), "a little narrower than its neighbour");
         assert!(!wider_than_beside(&line, 1, 1, 30.0), "narrower than the wider of its neighbours");
@@ -1996,8 +2086,10 @@ mod tests {
         let mut out = vec![0.0; w * 2];
         decoder.stripe_coords_into(&seg, &linear, w, 100.0, &mut out);
         let ext: Vec<bool> = (0..out.len()).map(|i| decoder.extended().contains(&(i as u32))).collect();
+        // Stripe 4 to 5, bent as wide stripes are (see `stripe_tangents`).
+        let tangents = stripe_tangents(&named(&seg.lines[0]), 1, 1);
         for s in 21..=30 {
-            let want = 4.0 + (s as f32 - 20.0) / 10.5;
+            let want = 4.0 + across_stripe((s as f32 - 20.0) / 10.5, tangents);
             assert!(!ext[s] && (out[s] - want).abs() < 1e-5, "texture, pixel {s}: {} (extended {}), want {want}", out[s], ext[s]);
         }
         for s in (21..=25).chain(28..=33) {
