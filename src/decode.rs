@@ -855,10 +855,11 @@ impl Decoder {
             let tangents = if stripes == 1 && parts == 1 { stripe_tangents(&named, k, step) } else { [1.0; 2] };
             for k in 0..parts {
                 let (p, q) = (boundary(k), boundary(k + 1));
+                let (across, from, span) = (1.0 / (q.pos - p.pos), p.id as f32, (q.id - p.id) as f32);
                 let mut s = p.pos.ceil() as usize;
                 while (s as f32) < q.pos {
-                    let (i, t) = (axis_index(axis, line, s, width), (s as f32 - p.pos) / (q.pos - p.pos));
-                    let v = p.id as f32 + (q.id - p.id) as f32 * across_stripe(t, tangents);
+                    let (i, t) = (axis_index(axis, line, s, width), (s as f32 - p.pos) * across);
+                    let v = from + span * across_stripe(t, tangents);
                     let c = &mut out[i - at.base];
                     if weak.is_none() {
                         *c = v;
@@ -1342,8 +1343,9 @@ fn stripe_tangents(named: &[Named], k: usize, step: i32) -> [f32; 2] {
 /// `tangents` ([`stripe_tangents`]); with both 1, `t` itself. With tangents in (0, 2),
 /// as Catmull-Rom's are, the curve rises monotonically.
 fn across_stripe(t: f32, [m0, m1]: [f32; 2]) -> f32 {
-    let (t2, t3) = (t * t, t * t * t);
-    (t3 - 2.0 * t2 + t) * m0 + (3.0 * t2 - 2.0 * t3) + (t3 - t2) * m1
+    // t + (m0 - 1) t (1 - t)² - (m1 - 1) t² (1 - t): exactly t with both tangents 1.
+    let u = 1.0 - t;
+    t * (1.0 + u * ((m0 - 1.0) * u - (m1 - 1.0) * t))
 }
 
 /// Most the width of a stripe with edges without an identity inside it may differ from
