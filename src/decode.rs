@@ -831,7 +831,9 @@ impl Decoder {
                     continue;
                 }
             }
-            if stripes == 1 && wider_than_beside(&named, k, step, max_width) {
+            // The identified stripes either side of a single stripe ([`widths_beside`]).
+            let beside = if stripes == 1 { widths_beside(&named, k, step) } else { (None, None) };
+            if stripes == 1 && wider_than_beside(b.pos - a.pos, beside, max_width) {
                 continue;
             }
             let index = |s: usize| axis_index(axis, line, s, width);
@@ -852,7 +854,7 @@ impl Decoder {
                 continue;
             }
             // One stripe bends with the stripes beside it; parts of a misread stretch do not.
-            let tangents = if stripes == 1 && parts == 1 { stripe_tangents(&named, k, step) } else { [1.0; 2] };
+            let tangents = if stripes == 1 && parts == 1 { stripe_tangents(b.pos - a.pos, beside) } else { [1.0; 2] };
             for k in 0..parts {
                 let (p, q) = (boundary(k), boundary(k + 1));
                 let (across, from, span) = (1.0 / (q.pos - p.pos), p.id as f32, (q.id - p.id) as f32);
@@ -1280,13 +1282,11 @@ pub const EXTEND_WIDTH_SPAN: f32 = 24.0;
 /// whose width [`extension_width`] takes into its mean.
 pub const EXTEND_WIDTH_AGREE: f32 = 0.15;
 
-/// Whether the stripe between the identified edges `named[k]` and `named[k + 1]`
-/// (consecutive identities `step` apart) is wider than [`STRIPE_WIDTH_JUMP`] times the
-/// identified stripe beside it on either side, or with none, than
-/// [`LONE_STRIPE_SHARE`] of `max_width`.
-fn wider_than_beside(named: &[Named], k: usize, step: i32, max_width: f32) -> bool {
-    let (before, after) = widths_beside(named, k, step);
-    let width = named[k + 1].edge.pos - named[k].edge.pos;
+/// Whether a stripe `width` pixels wide between two consecutive identified edges is
+/// wider than [`STRIPE_WIDTH_JUMP`] times the identified stripe beside it on either side
+/// (`beside`, [`widths_beside`]), or with none, than [`LONE_STRIPE_SHARE`] of
+/// `max_width`.
+fn wider_than_beside(width: f32, (before, after): (Option<f32>, Option<f32>), max_width: f32) -> bool {
     match (before, after) {
         (None, None) => width > LONE_STRIPE_SHARE * max_width,
         (x, y) => width > STRIPE_WIDTH_JUMP * max_f32(x.unwrap_or(0.0), y.unwrap_or(0.0)),
@@ -1315,9 +1315,10 @@ pub const BEND_WIDTH_RATIO: f32 = 1.5;
 /// stripe takes a tenth of the bend, a 25-pixel one 95 %).
 pub const BEND_HALF_WIDTH: f32 = 12.0;
 
-/// The tangents of the stripe coordinate at the two boundaries of the stripe between
-/// `named[k]` and `named[k + 1]` (consecutive identities `step` apart), in stripes per
-/// stripe width, for [`across_stripe`]. Between two boundaries the coordinate used to
+/// The tangents of the stripe coordinate at the two boundaries of a stripe `w` pixels
+/// wide between two consecutive identified edges, with the identified stripes beside it
+/// `(before, after)` ([`widths_beside`]), in stripes per stripe width, for
+/// [`across_stripe`]. Between two boundaries the coordinate used to
 /// be a straight line; on a surface that curves, or creases, inside a stripe, the
 /// stripes beside it are wider or narrower than it, and a straight line through 25
 /// camera pixels is several millimetres off in its middle (crumpled paper under
@@ -1326,9 +1327,7 @@ pub const BEND_HALF_WIDTH: f32 = 12.0;
 /// side of it (Catmull-Rom: twice the width over the sum of the two widths), where the
 /// stripe beside is identified in the same run and within [`BEND_WIDTH_RATIO`], else 1
 /// (straight); then drawn toward 1 for narrow stripes ([`BEND_HALF_WIDTH`]).
-fn stripe_tangents(named: &[Named], k: usize, step: i32) -> [f32; 2] {
-    let w = named[k + 1].edge.pos - named[k].edge.pos;
-    let (before, after) = widths_beside(named, k, step);
+fn stripe_tangents(w: f32, (before, after): (Option<f32>, Option<f32>)) -> [f32; 2] {
     let (w4, h4) = ((w * w) * (w * w), BEND_HALF_WIDTH.powi(4));
     let bend = w4 / (w4 + h4);
     let tangent = |beside: Option<f32>| match beside {
@@ -1777,6 +1776,16 @@ mod tests {
         Edge { pos, code: NO_CODE, mask: ANY_BOUNDARY, run: 0, id, tentative: Tentative::NONE }
     }
 
+    /// [`wider_than_beside`] of the stripe between `named[k]` and `named[k + 1]`.
+    fn wider(named: &[Named], k: usize, step: i32, max_width: f32) -> bool {
+        wider_than_beside(named[k + 1].edge.pos - named[k].edge.pos, widths_beside(named, k, step), max_width)
+    }
+
+    /// [`stripe_tangents`] of the stripe between `named[k]` and `named[k + 1]`.
+    fn tangents_of(named: &[Named], k: usize, step: i32) -> [f32; 2] {
+        stripe_tangents(named[k + 1].edge.pos - named[k].edge.pos, widths_beside(named, k, step))
+    }
+
     /// The identified edges of a line, as [`Decoder::line_coords`] pairs them.
     fn named(edges: &[Edge]) -> Vec<Named> {
         let mut out = Vec::new();
@@ -1979,7 +1988,7 @@ mod tests {
         let line = named(&(0..6).map(|j| edge(at(j as f32), j)).collect::<Vec<_>>());
         let k = 2;
         let (a, b) = (line[k].edge.pos, line[k + 1].edge.pos);
-        let tangents = stripe_tangents(&line, k, 1);
+        let tangents = tangents_of(&line, k, 1);
         let (mut straight, mut bent, mut last) = (0.0f32, 0.0f32, 0.0f32);
         for s in (a.ceil() as usize)..(b.ceil() as usize) {
             let t = (s as f32 - a) / (b - a);
@@ -1997,15 +2006,15 @@ mod tests {
         assert!((across_stripe(0.3, [1.0, 1.0]) - 0.3).abs() < 1e-6);
         // 7-pixel stripes: about a tenth of Catmull-Rom's bend.
         let narrow = named(&[edge(100.0, 0), edge(106.5, 1), edge(113.5, 2), edge(121.0, 3)]);
-        let [m0, m1] = stripe_tangents(&narrow, 1, 1);
+        let [m0, m1] = tangents_of(&narrow, 1, 1);
         assert!(m0 > 1.0 && m0 - 1.0 < 0.15 * (2.0 * 7.0 / 13.5 - 1.0), "{m0}");
         assert!(m1 < 1.0 && 1.0 - m1 < 0.15 * (1.0 - 2.0 * 7.0 / 14.5), "{m1}");
         // A neighbour twice as wide (another surface), and none: straight on that side.
         let broken = named(&[edge(100.0, 0), edge(150.0, 1), edge(175.0, 2), edge(203.0, 3)]);
-        let [m0, m1] = stripe_tangents(&broken, 1, 1);
+        let [m0, m1] = tangents_of(&broken, 1, 1);
         assert_eq!(m0, 1.0);
         assert!(m1 < 1.0, "{m1}");
-        assert_eq!(stripe_tangents(&broken, 0, 1)[0], 1.0);
+        assert_eq!(tangents_of(&broken, 0, 1)[0], 1.0);
     }
 
     /// A line between two aligned lines takes the identities they agree on where its
@@ -2036,13 +2045,13 @@ mod tests {
     #[test]
     fn a_stripe_much_wider_than_its_neighbour_is_not_decoded() {
         let line = named(&[edge(10.0, 3), edge(20.0, 4), edge(31.0, 5), edge(55.0, 6), edge(66.0, -1), edge(80.0, 9), edge(100.0, 10)]);
-        assert!(!wider_than_beside(&line, 0, 1, 30.0), "a little narrower than its neighbour");
-        assert!(!wider_than_beside(&line, 1, 1, 30.0), "narrower than the wider of its neighbours");
-        assert!(wider_than_beside(&line, 2, 1, 30.0), "more than twice its neighbour");
-        assert!(!wider_than_beside(&line, 4, 1, 30.0), "alone, under two thirds of the widest");
-        assert!(wider_than_beside(&line, 4, 1, 29.0), "alone, over two thirds of the widest");
+        assert!(!wider(&line, 0, 1, 30.0), "a little narrower than its neighbour");
+        assert!(!wider(&line, 1, 1, 30.0), "narrower than the wider of its neighbours");
+        assert!(wider(&line, 2, 1, 30.0), "more than twice its neighbour");
+        assert!(!wider(&line, 4, 1, 30.0), "alone, under two thirds of the widest");
+        assert!(wider(&line, 4, 1, 29.0), "alone, over two thirds of the widest");
         let falling: Vec<Named> = line.iter().map(|n| Named { edge: Edge { id: 20 - n.edge.id, ..n.edge }, ..*n }).collect();
-        assert!(wider_than_beside(&falling, 2, -1, 30.0), "identities falling along the line");
+        assert!(wider(&falling, 2, -1, 30.0), "identities falling along the line");
     }
 
     /// Of two consecutive edges with one identity, the one that leaves the stripes
@@ -2089,7 +2098,7 @@ mod tests {
         decoder.stripe_coords_into(&seg, &linear, w, 100.0, &mut out);
         let ext: Vec<bool> = (0..out.len()).map(|i| decoder.extended().contains(&(i as u32))).collect();
         // Stripe 4 to 5, bent as wide stripes are (see `stripe_tangents`).
-        let tangents = stripe_tangents(&named(&seg.lines[0]), 1, 1);
+        let tangents = tangents_of(&named(&seg.lines[0]), 1, 1);
         for s in 21..=30 {
             let want = 4.0 + across_stripe((s as f32 - 20.0) / 10.5, tangents);
             assert!(!ext[s] && (out[s] - want).abs() < 1e-5, "texture, pixel {s}: {} (extended {}), want {want}", out[s], ext[s]);
