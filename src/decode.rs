@@ -853,8 +853,9 @@ impl Decoder {
             if !lit || ((stripes == 1 || misread) && (0..parts).any(shadowed)) {
                 continue;
             }
-            // One stripe bends with the stripes beside it; parts of a misread stretch do not.
-            let tangents = if stripes == 1 && parts == 1 { stripe_tangents(b.pos - a.pos, beside) } else { [1.0; 2] };
+            // A single stripe bends with the stripes beside it; stretches of several
+            // (across skipped or misread boundaries) stay straight.
+            let tangents = if stripes == 1 { stripe_tangents(b.pos - a.pos, beside) } else { [1.0; 2] };
             for k in 0..parts {
                 let (p, q) = (boundary(k), boundary(k + 1));
                 let (across, from, span) = (1.0 / (q.pos - p.pos), p.id as f32, (q.id - p.id) as f32);
@@ -1257,6 +1258,8 @@ fn extension_width(edges: &[Edge], i: usize, d: isize, step: i32) -> Option<f32>
     let nearest = width(i as isize)?;
     let (mut sum, mut n) = (nearest, 1);
     let mut k = i as isize + d;
+    // The width of the first stripe the mean left out, if identified.
+    let mut left_out = None;
     while n < EXTEND_WIDTH_STRIPES {
         match width(k) {
             Some(w) if (w - nearest).abs() <= EXTEND_WIDTH_AGREE * nearest && sum + w <= EXTEND_WIDTH_SPAN => {
@@ -1264,13 +1267,16 @@ fn extension_width(edges: &[Edge], i: usize, d: isize, step: i32) -> Option<f32>
                 n += 1;
                 k += d;
             }
-            _ => break,
+            other => {
+                left_out = other;
+                break;
+            }
         }
     }
     // The nearest stripe alone (too wide for a mean, or unlike the next): the width at
-    // the boundary, where the next stripe's trend puts it (see `EXTEND_WIDTH_STRIPES`).
+    // the boundary, where the next stripe's trend puts it.
     if n == 1 {
-        if let Some(next) = width(i as isize + d).filter(|&next| bends_with(nearest, next)) {
+        if let Some(next) = left_out.filter(|&next| bends_with(nearest, next)) {
             return Some(nearest + 0.5 * bend_share(nearest) * (nearest - next));
         }
     }

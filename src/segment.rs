@@ -708,7 +708,7 @@ fn segment_line(input: &LineInput, line: usize, edges: &mut Vec<Edge>, sc: &mut 
             // projector's). See [`subpixel_peak`].
             // None where its peak is at the end of the line: no place to read.
             if let Some((p, offset, var)) = subpixel_peak(&sc.light, &sc.level, clipped, s, len, shape) {
-                    edges.push(Edge { pos: p as f32 + offset, code: NO_CODE, mask: 0, run: run_id, id: -1, tentative: Tentative::NONE });
+                edges.push(Edge { pos: p as f32 + offset, code: NO_CODE, mask: 0, run: run_id, id: -1, tentative: Tentative::NONE });
                 sc.peaks.push((s, var));
             }
         }
