@@ -79,14 +79,14 @@ const MEASURED: &[(&str, &str, f64, f64)] = &[
     ("bag", "default", 0.6667, 0.0012),
     // 4:2:0 and JPEG: 1.23 % outliers before the boundaries were refined with the
     // frame's luma (and a chain's one thrown position mended).
-    ("paper", "webcam", 0.9711, 0.0032),
+    ("paper", "webcam", 0.9719, 0.0033),
     ("skin", "clipped", 0.9720, 0.0010),
     ("wall", "partial", 0.9996, 0.0000),
-    ("occluders", "world", 0.9678, 0.0053),
+    ("occluders", "world", 0.9672, 0.0055),
     // Partial light beside a cast shadow: with the extension's light read from the new
     // stripe's second pixel but its shadow test still from the first (half lit by the
     // blur), the stripes were extended into the cylinder's shadow (0.61 % outliers).
-    ("textured", "world", 0.9630, 0.0023),
+    ("textured", "world", 0.9655, 0.0015),
     // 25-pixel stripes: a cast shadow between two stripes' edges was bridged as one
     // stripe (15.8 % outliers before the decoder compared a stripe's light with its
     // neighbours', 4.2 % before it compared the stripe's width with theirs).
@@ -101,7 +101,11 @@ const MEASURED: &[(&str, &str, f64, f64)] = &[
     // the other family agrees with up to a tenth of its border.
     ("wood", "clipped", 0.9634, 0.0013),
     // Dyes through 4:2:0 and JPEG: 72.0 % and 1.53 % outliers before chains.
-    ("paper-dye", "webcam", 0.9409, 0.0035),
+    ("paper-dye", "webcam", 0.9406, 0.0036),
+    // 1 % dyes and near-black patches through 4:2:0 and JPEG: 57.7 % before a channel
+    // between its values allowed both over a band that widens with its noise
+    // (`SUBSAMPLED_VALUE_TOLERANCE` in `segment.rs`).
+    ("bag", "webcam", 0.5996, 0.0026),
     // A projector out of focus (stripes without a flat top): 92.7 % and 2.17 %
     // outliers on the wall, 79.0 % and 2.74 % on skin, before the boundaries of broad
     // lines were placed with a smoothed derivative and a Gaussian.
