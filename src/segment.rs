@@ -1789,12 +1789,31 @@ mod tests {
     /// The light at `x` of stripes cycling through `palette` with boundaries at `bounds`,
     /// each blurred in linear light as in [`edge_row`].
     fn blurred_stripes(palette: &[[f32; 3]], bounds: &[f32], x: f32) -> [f32; 3] {
+        blurred_stripes_by(palette, bounds, x, 0.4)
+    }
+
+    /// [`blurred_stripes`] with each boundary a logistic step of `scale` pixels.
+    fn blurred_stripes_by(palette: &[[f32; 3]], bounds: &[f32], x: f32, scale: f32) -> [f32; 3] {
         [0, 1, 2].map(|c| {
             bounds.iter().enumerate().fold(palette[0][c], |v, (k, &b)| {
                 let step = palette[(k + 1) % palette.len()][c] - palette[k % palette.len()][c];
-                v + step / (1.0 + (-(x - b) / 0.4).exp())
+                v + step / (1.0 + (-(x - b) / scale).exp())
             })
         })
+    }
+
+    /// One line of `len` pixels of [`blurred_stripes_by`]: its restored log signal (the
+    /// light's log) and its linear light.
+    fn stripe_line(palette: &[[f32; 3]], bounds: &[f32], len: usize, scale: f32) -> (Restored, Vec<[f32; 3]>) {
+        let mut restored = Restored::new(len, 1);
+        let mut linear = vec![[0f32; 3]; len];
+        for (x, px) in linear.iter_mut().enumerate() {
+            *px = blurred_stripes_by(palette, bounds, x as f32, scale);
+            for c in 0..3 {
+                restored.log[c][x] = px[c].ln();
+            }
+        }
+        (restored, linear)
     }
 
     fn one_edge(pos: f32) -> Segmentation {
@@ -1817,14 +1836,7 @@ mod tests {
         let palette = [[1.0, 0.25, 0.25], [1.0, 1.0, 0.25], [0.25, 0.25, 1.0], [0.25, 1.0, 1.0]];
         let bounds: Vec<f32> = (0..16).map(|k| 5.3 + 3.0 * k as f32).collect();
         let len = 60;
-        let mut restored = Restored::new(len, 1);
-        let mut linear = vec![[0f32; 3]; len];
-        for (x, px) in linear.iter_mut().enumerate() {
-            *px = blurred_stripes(&palette, &bounds, x as f32);
-            for c in 0..3 {
-                restored.log[c][x] = px[c].ln();
-            }
-        }
+        let (restored, linear) = stripe_line(&palette, &bounds, len, 0.4);
         let flags = vec![0; len];
         let mut seg = Segmentation::default();
         seg.run(&restored, &linear, &flags, ScanAxis::Rows, 3.0, ChromaPairs::default());
@@ -1877,14 +1889,7 @@ mod tests {
         let bounds: Vec<f32> = (0..6).map(|k| 4.5 + 8.0 * k as f32).collect();
         let blue_step = 0.3 * (1.0f32 / 0.3).ln();
         let palette = [[1.0, 0.5, 0.037], [0.3, 0.5, 0.037 * blue_step.exp()]];
-        let mut restored = Restored::new(len, 1);
-        let mut linear = vec![[0f32; 3]; len];
-        for (x, px) in linear.iter_mut().enumerate() {
-            *px = blurred_stripes(&palette, &bounds, x as f32);
-            for c in 0..3 {
-                restored.log[c][x] = px[c].ln();
-            }
-        }
+        let (restored, linear) = stripe_line(&palette, &bounds, len, 0.4);
         let blue_values = |chroma: ChromaPairs| -> Vec<Vec<i8>> {
             let mut seg = Segmentation::default();
             seg.run(&restored, &linear, &vec![0; len], ScanAxis::Rows, 8.0, chroma);
@@ -1908,19 +1913,7 @@ mod tests {
         let blue_step = 0.35 * (1.0f32 / 0.3).ln();
         let palette = [[1.0, 0.5, 0.037], [0.3, 0.5, 0.037 * blue_step.exp()]];
         let blue_values = |scale: f32| -> Vec<Vec<i8>> {
-            let mut restored = Restored::new(len, 1);
-            let mut linear = vec![[0f32; 3]; len];
-            for (x, px) in linear.iter_mut().enumerate() {
-                *px = [0, 1, 2].map(|c| {
-                    bounds.iter().enumerate().fold(palette[0][c], |v, (k, &b)| {
-                        let step = palette[(k + 1) % 2][c] - palette[k % 2][c];
-                        v + step / (1.0 + (-(x as f32 - b) / scale).exp())
-                    })
-                });
-                for c in 0..3 {
-                    restored.log[c][x] = px[c].ln();
-                }
-            }
+            let (restored, linear) = stripe_line(&palette, &bounds, len, scale);
             let mut seg = Segmentation::default();
             seg.run(&restored, &linear, &vec![0; len], ScanAxis::Rows, 12.0, ChromaPairs::default());
             assert_eq!(seg.scratch[0].shape != PeakShape::Sharp, scale > 1.0, "blur scale {scale}: line read as {:?}", seg.scratch[0].shape);
