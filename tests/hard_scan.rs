@@ -94,6 +94,10 @@ const MEASURED: &[(&str, &str, f64, f64)] = &[
     // 3-pixel stripes: 58.3 % coverage and 1.77 % outliers before a boundary's
     // strength stopped having to top the strength two pixels out at that width.
     ("wood", "narrow", 0.9651, 0.0008),
+    // 3-pixel stripes across the ColorChecker's black bands: 83.9 % before up to six
+    // stripes at once were decoded across a dark band (`BRIDGE_MAX_STRIPES` in
+    // `decode.rs`; four before).
+    ("colorchecker", "narrow", 0.8503, 0.0006),
     // Grain along one family's stripes: 92.0 % before the regions where the families
     // disagree were settled by the family their border agrees with.
     ("wood", "default", 0.9641, 0.0010),
