@@ -11,7 +11,7 @@
 //! few clean boundaries in a row are enough; looser evidence (a channel too dark to read
 //! on a saturated dye, or clipped) needs more of them. Only every other line is
 //! aligned so; a line between takes the identities the lines either side agree on,
-//! unless too many of its edges are in doubt ([`Decoder::infer_line`]).
+//! unless too many of its edges are in doubt (`Decoder::infer_line`).
 //!
 //! Then across lines: a stripe boundary continues from line to line, so identities are
 //! checked against the boundaries at the same place on the neighbouring lines (a
@@ -22,7 +22,7 @@
 //! where only a partial window is visible), provided their own code matches the
 //! pattern's code for that boundary (is compatible with it). Last, boundaries that no
 //! line could identify with enough margin are labelled by their chains: the lines'
-//! best readings of one boundary, summed along it ([`Decoder::label_chains`]); the
+//! best readings of one boundary, summed along it (`Decoder::label_chains`); the
 //! merge keeps what those labels give only where another family's depths at or around
 //! the pixel agree with it.
 
@@ -69,7 +69,7 @@ pub const ALONG_LINE_SHARE: f32 = 0.5;
 /// 14, 0.722 % (the `wide` rows lose what the `webcam` rows gain).
 pub const ALONG_LINE_FIT: f32 = 1.5;
 
-/// Share of a line's edges that may be in doubt (see [`Decoder::infer_line`]) for the
+/// Share of a line's edges that may be in doubt (see `Decoder::infer_line`) for the
 /// line to take its identities from the aligned lines either side instead of being
 /// aligned itself. Why: the alignment is most of the decoding's time, and a stripe
 /// boundary continues from line to line, so where the lines either side agree, the
@@ -96,7 +96,7 @@ pub const MAX_PROPAGATION_CODES: u32 = 1;
 pub const MIN_LINE_SUPPORT: usize = 2;
 
 /// Most bits one line's reading of an edge adds to its chain's vote (see
-/// [`Decoder::label_chains`]): a line whose alignment is sure counts as much as one
+/// `Decoder::label_chains`): a line whose alignment is sure counts as much as one
 /// edge taken at once, and no more.
 pub const CHAIN_EDGE_CAP_BITS: f32 = crate::align::ACCEPT_BITS;
 
@@ -694,7 +694,7 @@ impl Decoder {
     /// The stripe coordinate (pattern units: boundary j at j) of every pixel that lies
     /// between two identified boundaries of the same run, consecutive on the line and at
     /// most [`MAX_STEP`] stripes apart in the pattern (boundaries between them showed no
-    /// edge, or edges just where they are: [`misread_boundaries`]); NaN elsewhere. A
+    /// edge, or edges just where they are: `misread_boundaries`); NaN elsewhere. A
     /// single stripe wider than `max_width` pixels is not bridged, nor `k` stripes
     /// wider than `max_width · (k + 2) / 3`, nor stripes with a
     /// pixel inside them lit less than [`SHADOW_SHARE`] of their ends, nor a single
@@ -909,14 +909,14 @@ impl Decoder {
     }
 
     /// The pixels whose coordinate the last [`Decoder::stripe_coords_into`] took from a
-    /// boundary labelled by its chain alone (see [`Decoder::label_chains`]).
+    /// boundary labelled by its chain alone (see `Decoder::label_chains`).
     pub fn weak(&self) -> &[u32] {
         &self.weak
     }
 }
 
 /// How far past a decoded stretch's last boundary, in widths of its last stripes
-/// ([`extension_width`]), the stretch is extended into the next stripe (whose far
+/// (`extension_width`), the stretch is extended into the next stripe (whose far
 /// boundary was not identified: seen without an edge, with too little evidence, or cut
 /// off by a shadow, an occluding edge or the end of the light). Each pixel of the
 /// stretch's last stripe is interpolated between its two boundaries; the pixels beyond,
@@ -1203,7 +1203,7 @@ pub const NEIGHBOUR_SHARE: f32 = 0.5;
 /// widths differ only by the surface's slant and curvature, a few per cent; a stretch
 /// of ambient light (a cast shadow, the edge of the projector's light) between two
 /// edges that the alignment took for consecutive boundaries is as wide as the shadow.
-/// Such a stretch passes the light tests ([`lit_between`], [`Decoder::shadowed`])
+/// Such a stretch passes the light tests (`lit_between`, `Decoder::shadowed`)
 /// where the room's light on the wall is as bright as a dark stripe there, and a
 /// grey stripe between two white ones drops every channel as a shadow does. Measured
 /// on the `default`, `webcam`, `world`, `wide` and `narrow` rows of ten scenes (sphere,
@@ -1283,7 +1283,7 @@ fn extension_width(edges: &[Edge], i: usize, d: isize, step: i32) -> Option<f32>
     Some(sum / n as f32)
 }
 
-/// Stripes whose mean width a stretch is extended with ([`extension_width`]): 3.
+/// Stripes whose mean width a stretch is extended with (`extension_width`): 3.
 ///
 /// Why: an extension's coordinates are its last boundary's plus the pixels past it over
 /// a width, so the width's error grows with the reach. One stripe's width carries the
@@ -1298,12 +1298,12 @@ fn extension_width(edges: &[Edge], i: usize, d: isize, step: i32) -> Option<f32>
 /// before; to 24 (three 7-pixel stripes) 89.660 % / 0.3582 %.
 pub const EXTEND_WIDTH_STRIPES: usize = 3;
 
-/// Most pixels the stripes whose mean width [`extension_width`] takes may span: 24
+/// Most pixels the stripes whose mean width `extension_width` takes may span: 24
 /// (see [`EXTEND_WIDTH_STRIPES`]).
 pub const EXTEND_WIDTH_SPAN: f32 = 24.0;
 
 /// Largest difference, as a share of the nearest stripe's width, of a further stripe
-/// whose width [`extension_width`] takes into its mean.
+/// whose width `extension_width` takes into its mean.
 pub const EXTEND_WIDTH_AGREE: f32 = 0.15;
 
 /// Whether a stripe `width` pixels wide between two consecutive identified edges is
@@ -1327,12 +1327,12 @@ fn widths_beside(named: &[Named], k: usize, step: i32) -> (Option<f32>, Option<f
 }
 
 /// Most a stripe beside a decoded stripe may differ from it in width, as a factor
-/// either way, for [`stripe_tangents`] to bend the decoded stripe's coordinates with
+/// either way, for `stripe_tangents` to bend the decoded stripe's coordinates with
 /// it; past that, the neighbour is taken for another surface (across a depth edge or
 /// a crease sharper than a stripe can follow) and that side stays straight.
 pub const BEND_WIDTH_RATIO: f32 = 1.5;
 
-/// The stripe width, camera pixels, at which [`stripe_tangents`] bends a stripe's
+/// The stripe width, camera pixels, at which `stripe_tangents` bends a stripe's
 /// coordinates half as much as the widths beside it say: the error of a straight line
 /// across a curved surface grows with the square of the stripe's width, the noise of
 /// its two boundaries does not, so narrow stripes stay nearly straight (a 7-pixel
@@ -1458,7 +1458,7 @@ fn misread_boundaries(edges: &[Edge], i: usize, j: usize, stripes: i32) -> Optio
 
 /// How far from where equal stripes put it, as a share of a stripe's width, an edge
 /// without an identity between two identified boundaries may lie for
-/// [`misread_boundaries`] to take it for the boundary the pattern has there.
+/// `misread_boundaries` to take it for the boundary the pattern has there.
 ///
 /// Why: between two identified boundaries two or more stripes apart, a stripe was
 /// decoded only where the boundaries skipped change no channel either edge can read
@@ -1484,12 +1484,12 @@ fn misread_boundaries(edges: &[Edge], i: usize, j: usize, stripes: i32) -> Optio
 pub const MISREAD_POSITION: f32 = 0.08;
 
 /// Most stripes between two identified boundaries decoded through misread boundaries
-/// ([`misread_boundaries`]) with no test of their neighbours: two, through one edge
+/// (`misread_boundaries`) with no test of their neighbours: two, through one edge
 /// halfway between and no other. Across more stripes (up to
 /// [`MISREAD_TESTED_MAX_STRIPES`]), or with other edges between (the surface's texture),
 /// the identified stripes either side must be within [`BRIDGE_WIDTH_TOLERANCE`] of the
 /// stripes' mean width, as for a stripe bridged across edges without an identity
-/// ([`bridges_unnamed`]): at a fold or an occluding edge they differ.
+/// (`bridges_unnamed`): at a fold or an occluding edge they differ.
 ///
 /// Why: across up to [`MAX_STEP`] stripes the full evaluation (`eval --hard`, 114 rows)
 /// lost the outlier goal of occluders under `partial` (0.46 -> 0.54 %): a row along the
@@ -1540,14 +1540,14 @@ pub const BRIDGE_MAX_STRIPES: i32 = 6;
 /// Widest part of the projector's image, in its pixels across the stripes, that is
 /// decoded at once across a dark band: two to [`BRIDGE_MAX_STRIPES`] stripes between
 /// identified boundaries, with edges without an identity between them and with as
-/// wide stripes on either side ([`bridges_unnamed`], by their mean width), are decoded
+/// wide stripes on either side (`bridges_unnamed`, by their mean width), are decoded
 /// across boundaries that were not identified or not seen, where the band's dark
 /// pixels show the stripes (`Decoder::band_shows_stripes`) instead of where every
-/// pixel is lit ([`lit_between`]).
+/// pixel is lit (`lit_between`).
 ///
 /// Why: the ColorChecker's black card (about 3 % reflectance) shows between its
 /// patches as 10-pixel bands at a twentieth of the patches' light, which
-/// [`lit_between`] takes for a shadow. The boundary inside such a band is readable,
+/// `lit_between` takes for a shadow. The boundary inside such a band is readable,
 /// but it lies a few pixels from the band's own edges, whose log steps are twenty
 /// times stronger; the band's edges (the whole albedo step and a boundary merged
 /// into it) take no identity, and the gaps stayed empty: a tenth of the chart. On

@@ -309,9 +309,9 @@ impl ChromaPairs {
 }
 
 /// Whether `frame`'s chroma comes in repeated pairs along each axis: counts the colour
-/// edges ([`EDGE_CHROMA_CHANGE`]) between the two pixels of a pair and between
+/// edges (`EDGE_CHROMA_CHANGE`) between the two pixels of a pair and between
 /// neighbouring pairs (not across JPEG blocks), on one row (column) in
-/// [`PAIR_SAMPLE_STEP`].
+/// `PAIR_SAMPLE_STEP`.
 ///
 /// ```
 /// use stripelight::raster::{detect_chroma_pairs, ChromaPairs};

@@ -74,7 +74,7 @@ pub const VALUE_TOLERANCE: f32 = 0.42;
 
 /// [`VALUE_TOLERANCE`] where a stripe's steps come smeared: in a frame whose colour came
 /// at half resolution (4:2:0 or 4:2:2, as from most webcams, with JPEG's coarser
-/// quantization of the chroma), and on a broad line ([`PeakShape`] not sharp: a
+/// quantization of the chroma), and on a broad line (`PeakShape` not sharp: a
 /// projector out of focus, whose blur lifts a narrow dark stripe by its neighbours and
 /// reads its step at about half of a wide one's).
 /// With a tolerance `t`, a channel whose step `d` lies between the values allows both
@@ -185,7 +185,7 @@ pub const SLOPE_FIT_SIGMAS: f32 = 3.0;
 /// 0.69 / 0.71 % outliers; bag 59.7 % -> 63.5 / 61.9 / 60.0 / 59.6 %; colorchecker
 /// 86.3 % -> 84.7 / 86.3 % (4 / 6); skin/8mp 90.8 % -> 87.9 / 89.9 / 90.5 % (4 / 6 /
 /// 8): its 25-pixel stripes are blurred over more pixels, which a short plateau
-/// leaves in. Only on lines whose edges are sharp ([`PeakShape::Sharp`]): on the real
+/// leaves in. Only on lines whose edges are sharp (`PeakShape::Sharp`): on the real
 /// capture of Zion1123 (`scripts/real-data.sh`), whose stripes are bell-shaped lobes,
 /// six pixels from an edge hold half a lobe, which fits a line where the whole lobe
 /// does not, and its slope was taken for the surface's ([`SLOPE_FIT`]): nothing of
@@ -798,7 +798,7 @@ fn smooth_strength(strength: &mut [f32]) {
 /// lobe's flank.
 pub const PEAK_REACH: usize = 1;
 
-/// [`PEAK_REACH`] on a soft line ([`PeakShape::Soft`]): 2. A blur of several pixels
+/// [`PEAK_REACH`] on a soft line (`PeakShape::Soft`): 2. A blur of several pixels
 /// leans the log strength's peak further to the dark side than one pixel (the
 /// lean is 0.4 of the blur's deviation). Measured on the 12 `soft` rows of `eval
 /// --hard` (mean coverage / outliers): 84.26 % / 0.683 % with 1, 84.23 % / 0.647 % with
@@ -832,7 +832,7 @@ pub const SOFT_SMOOTH_MIN_PERIOD: f32 = 12.0;
 
 /// The median variance (pixels²) of a line's gradient peaks, as the central
 /// difference sees them, above which the line's edges are placed with the smoothed
-/// derivative ([`PeakShape::of`]): 1.1 (the blur's variance plus the pixels' and the
+/// derivative (`PeakShape::of`): 1.1 (the blur's variance plus the pixels' and the
 /// difference's own). On the white wall, the lines' medians are 0.80-0.92 with a
 /// sharp projector and a focused camera (a blur of 0.6 pixels), 1.2-4.5 with the
 /// projector blurred by 3 of its pixels (2 camera pixels); through 4:2:0 chroma most
@@ -842,7 +842,7 @@ pub const SOFT_SMOOTH_MIN_PERIOD: f32 = 12.0;
 pub const BROAD_PEAK_VAR: f32 = 1.1;
 
 /// The median variance (pixels², as the central difference sees them) of a broad
-/// line's gradient peaks above which the line is soft ([`PeakShape::Soft`]): its
+/// line's gradient peaks above which the line is soft (`PeakShape::Soft`): its
 /// edges are placed with the 7-tap derivative, the least-squares slope through seven
 /// samples, (1, 2, 3, 0, -3, -2, -1) / 28, instead of the 5-tap one.
 ///
@@ -878,8 +878,8 @@ fn median_peak_var(peaks: &[(usize, f32)], widths: &mut Vec<f32>) -> f32 {
     median
 }
 
-/// Share of its weight ([`lit_weight`]) that a channel clipped at either end of a
-/// boundary (2 samples out) keeps in placing it ([`subpixel_peak`]), where a channel
+/// Share of its weight (`lit_weight`) that a channel clipped at either end of a
+/// boundary (2 samples out) keeps in placing it (`subpixel_peak`), where a channel
 /// clipped at neither end changes by over [`CLIPPED_CLEAN_STEP`] of its brighter side.
 /// Clipping cuts the top off a blurred step, so the clipped channel's gradient peaks
 /// towards its unclipped side (0.38 px off with its full weight where the clipped
@@ -1057,8 +1057,8 @@ fn exp_into(x: &[f32], out: &mut [f32]) {
     }
 }
 
-/// Samples either side of a broad line's gradient peak to which [`subpixel_peak`]
-/// fits its Gaussian ([`broad_fit`]): 2.
+/// Samples either side of a broad line's gradient peak to which `subpixel_peak`
+/// fits its Gaussian (`broad_fit`): 2.
 ///
 /// Why: a soft projector's edges spread over four to six pixels, so a Gaussian
 /// through the peak and its two neighbours reads the top of a broad curve, where it

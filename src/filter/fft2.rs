@@ -136,7 +136,7 @@ fn fft_error(e: realfft::FftError) -> Error {
 /// The transform length of at least `min` (even, with no prime factor above 7: RustFFT
 /// has butterflies for 2, 3, 5 and 7) that is cheapest by a simple cost model, the
 /// length times `1 + ODD_FACTOR_COST` per odd prime factor (with multiplicity), among
-/// the lengths at most [`MAX_SIZE_GROWTH`] above the smallest such length (the planes
+/// the lengths at most `MAX_SIZE_GROWTH` above the smallest such length (the planes
 /// and the memory grow with the length).
 ///
 /// The smallest such length is not always the fastest: in WebAssembly, one forward and

@@ -37,12 +37,12 @@ pub enum Texture {
         scale: f64,
         /// Seed of the noise lattice.
         seed: u64,
-        /// HSV saturation of the colours ([`BLOTCH_SATURATION`] for the textured
+        /// HSV saturation of the colours (`BLOTCH_SATURATION` for the textured
         /// scene).
         saturation: f64,
-        /// HSV value away from the dark patches ([`BLOTCH_VALUE`]).
+        /// HSV value away from the dark patches (`BLOTCH_VALUE`).
         value: f64,
-        /// Brightness left in the dark patches, as a fraction ([`BLOTCH_DARK_LEVEL`]).
+        /// Brightness left in the dark patches, as a fraction (`BLOTCH_DARK_LEVEL`).
         dark_level: f64,
     },
     /// A chart of square patches (a ColorChecker): `colours` row by row, `columns` to
