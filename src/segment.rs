@@ -1847,6 +1847,13 @@ mod tests {
         }
     }
 
+    /// A red stripe and a dark one, blue dim (about 0.04 of full scale) in both, rising
+    /// from the red to the dark stripe by `share` of red's change in the log.
+    fn red_and_dim_blue(share: f32) -> [[f32; 3]; 2] {
+        let blue_step = share * (1.0f32 / 0.3).ln();
+        [[1.0, 0.5, 0.037], [0.3, 0.5, 0.037 * blue_step.exp()]]
+    }
+
     /// The blue values the masks of `edges` allow, one list per boundary, from red
     /// stripes alternating with dark ones whose blue is dim (the two tests below):
     /// `count` boundaries, each naming red's change and green unchanged.
@@ -1887,8 +1894,7 @@ mod tests {
     fn a_noisy_channel_between_values_allows_both_only_with_subsampled_chroma() {
         let len = 52;
         let bounds: Vec<f32> = (0..6).map(|k| 4.5 + 8.0 * k as f32).collect();
-        let blue_step = 0.3 * (1.0f32 / 0.3).ln();
-        let palette = [[1.0, 0.5, 0.037], [0.3, 0.5, 0.037 * blue_step.exp()]];
+        let palette = red_and_dim_blue(0.3);
         let (restored, linear) = stripe_line(&palette, &bounds, len, 0.4);
         let blue_values = |chroma: ChromaPairs| -> Vec<Vec<i8>> {
             let mut seg = Segmentation::default();
@@ -1910,8 +1916,7 @@ mod tests {
     fn a_noisy_channel_between_values_allows_both_on_a_broad_line() {
         let len = 100;
         let bounds: Vec<f32> = (0..7).map(|k| 8.5 + 12.0 * k as f32).collect();
-        let blue_step = 0.35 * (1.0f32 / 0.3).ln();
-        let palette = [[1.0, 0.5, 0.037], [0.3, 0.5, 0.037 * blue_step.exp()]];
+        let palette = red_and_dim_blue(0.35);
         let blue_values = |scale: f32| -> Vec<Vec<i8>> {
             let (restored, linear) = stripe_line(&palette, &bounds, len, scale);
             let mut seg = Segmentation::default();
