@@ -886,14 +886,20 @@ impl Decoder {
             let before = i.checked_sub(1).map(|k| edges[k]);
             let after = edges.get(i + 1).copied();
             let from = extended.len();
-            if let Some(w) = extension_width(edges, i, -1, step) {
-                if weak.is_none() || is_weak(i) || is_weak(i - 1) {
-                    extend_stripe(&light_line, a, w, 1, after.map(|e| e.pos), step, out, extended);
+            // (Most identified edges lie inside a decoded stretch: whether there is
+            // anything to extend is asked before the width.)
+            if extension_start(&light_line, a, 1, out).is_some() {
+                if let Some(w) = extension_width(edges, i, -1, step) {
+                    if weak.is_none() || is_weak(i) || is_weak(i - 1) {
+                        extend_stripe(&light_line, a, w, 1, after.map(|e| e.pos), step, out, extended);
+                    }
                 }
             }
-            if let Some(w) = extension_width(edges, i, 1, step) {
-                if weak.is_none() || is_weak(i) || is_weak(i + 1) {
-                    extend_stripe(&light_line, a, w, -1, before.map(|e| e.pos), step, out, extended);
+            if extension_start(&light_line, a, -1, out).is_some() {
+                if let Some(w) = extension_width(edges, i, 1, step) {
+                    if weak.is_none() || is_weak(i) || is_weak(i + 1) {
+                        extend_stripe(&light_line, a, w, -1, before.map(|e| e.pos), step, out, extended);
+                    }
                 }
             }
             if weak.is_some() {
@@ -1046,6 +1052,15 @@ fn chromaticity(p: [f32; 3]) -> [f32; 3] {
     p.map(|v| v / total)
 }
 
+/// The first pixel past the identified boundary `a` in direction `d` (+1 or -1 along
+/// the line) when it is on the line and has no coordinate yet: where
+/// [`extend_stripe`] would start (None: nothing to extend, the common case inside a
+/// decoded stretch, which is told before the extension's width is worked out).
+fn extension_start(line: &LineLight, a: &Edge, d: isize, out: &[f32]) -> Option<isize> {
+    let first = if d > 0 { a.pos.ceil() } else { a.pos.floor() } as isize;
+    (line.inside(first) && out[line.index(first) - line.base].is_nan()).then_some(first)
+}
+
 /// Extend the decoded stretch that ends at the identified boundary `a`, whose last
 /// stripe is `w` pixels wide, into the stripe beyond it in direction `d` (+1 or -1
 /// along the line), up to [`EXTEND_REACH`] · `w` and short of the next edge at
@@ -1053,10 +1068,7 @@ fn chromaticity(p: [f32; 3]) -> [f32; 3] {
 /// without a coordinate, and adds them to `extended`.
 #[allow(clippy::too_many_arguments)]
 fn extend_stripe(line: &LineLight, a: &Edge, w: f32, d: isize, limit: Option<f32>, step: i32, out: &mut [f32], extended: &mut Vec<u32>) {
-    let first = if d > 0 { a.pos.ceil() } else { a.pos.floor() } as isize;
-    if !line.inside(first) || !out[line.index(first) - line.base].is_nan() {
-        return;
-    }
+    let Some(first) = extension_start(line, a, d, out) else { return };
     // The new stripe's light and colour are those of its second pixel: the first lies
     // within a pixel of the boundary and carries some of the blurred light of the
     // stripe before (as the reference it stopped most extensions a pixel or two in, and
