@@ -888,17 +888,17 @@ impl Decoder {
             let from = extended.len();
             // (Most identified edges lie inside a decoded stretch: whether there is
             // anything to extend is asked before the width.)
-            if extension_start(&light_line, a, 1, out).is_some() {
+            if let Some(first) = extension_start(&light_line, a, 1, out) {
                 if let Some(w) = extension_width(edges, i, -1, step) {
                     if weak.is_none() || is_weak(i) || is_weak(i - 1) {
-                        extend_stripe(&light_line, a, w, 1, after.map(|e| e.pos), step, out, extended);
+                        extend_stripe(&light_line, a, first, w, 1, after.map(|e| e.pos), step, out, extended);
                     }
                 }
             }
-            if extension_start(&light_line, a, -1, out).is_some() {
+            if let Some(first) = extension_start(&light_line, a, -1, out) {
                 if let Some(w) = extension_width(edges, i, 1, step) {
                     if weak.is_none() || is_weak(i) || is_weak(i + 1) {
-                        extend_stripe(&light_line, a, w, -1, before.map(|e| e.pos), step, out, extended);
+                        extend_stripe(&light_line, a, first, w, -1, before.map(|e| e.pos), step, out, extended);
                     }
                 }
             }
@@ -1054,7 +1054,7 @@ fn chromaticity(p: [f32; 3]) -> [f32; 3] {
 
 /// The first pixel past the identified boundary `a` in direction `d` (+1 or -1 along
 /// the line) when it is on the line and has no coordinate yet: where
-/// [`extend_stripe`] would start (None: nothing to extend, the common case inside a
+/// [`extend_stripe`] starts (None: nothing to extend, the common case inside a
 /// decoded stretch, which is told before the extension's width is worked out).
 fn extension_start(line: &LineLight, a: &Edge, d: isize, out: &[f32]) -> Option<isize> {
     let first = if d > 0 { a.pos.ceil() } else { a.pos.floor() } as isize;
@@ -1063,12 +1063,12 @@ fn extension_start(line: &LineLight, a: &Edge, d: isize, out: &[f32]) -> Option<
 
 /// Extend the decoded stretch that ends at the identified boundary `a`, whose last
 /// stripe is `w` pixels wide, into the stripe beyond it in direction `d` (+1 or -1
-/// along the line), up to [`EXTEND_REACH`] · `w` and short of the next edge at
-/// `limit`; `step` is +1 when identities grow along the line. Fills only pixels
-/// without a coordinate, and adds them to `extended`.
+/// along the line), from `first`, the pixel [`extension_start`] found, up to
+/// [`EXTEND_REACH`] · `w` and short of the next edge at `limit`; `step` is +1 when
+/// identities grow along the line. Fills only pixels without a coordinate, and adds
+/// them to `extended`.
 #[allow(clippy::too_many_arguments)]
-fn extend_stripe(line: &LineLight, a: &Edge, w: f32, d: isize, limit: Option<f32>, step: i32, out: &mut [f32], extended: &mut Vec<u32>) {
-    let Some(first) = extension_start(line, a, d, out) else { return };
+fn extend_stripe(line: &LineLight, a: &Edge, first: isize, w: f32, d: isize, limit: Option<f32>, step: i32, out: &mut [f32], extended: &mut Vec<u32>) {
     // The new stripe's light and colour are those of its second pixel: the first lies
     // within a pixel of the boundary and carries some of the blurred light of the
     // stripe before (as the reference it stopped most extensions a pixel or two in, and
