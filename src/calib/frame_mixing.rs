@@ -13,7 +13,9 @@
 //! linear function of `p`, and the slopes form the matrix `M diag(a)`: column `k` is
 //! column `k` of `M` times `a_k`, so scaling each column to sum to 1 removes the
 //! surface. Each tile whose pixels show enough different projector colours gives one
-//! estimate of every column, on any surface colour; the estimate kept is the median
+//! estimate of the columns of the primaries it varies (a primary that barely varies
+//! over the tile is held constant, its light part of the offset `b`), on any surface
+//! colour; the estimate kept is the median
 //! over the tiles, weighted by how much of the primary's light came back, which
 //! outvotes the few tiles where a wrong identity or an edge of the surface's texture
 //! skewed the fit.
@@ -107,29 +109,44 @@ impl ChannelSums {
         }
     }
 
-    /// The channel's slope against each primary over the tile, where the tile has
-    /// enough pixels, shows the primaries apart, and the straight line explains the
-    /// channel's light (see the constants).
-    fn slopes(&self) -> Option<DVec3> {
+    /// The channel's slope against each primary the tile shows enough of (`None` for
+    /// the others), where the tile has enough pixels, shows those primaries apart, and
+    /// the straight line explains the channel's light (see the constants). A primary
+    /// that barely varies over the tile is held constant: its light goes into the
+    /// line's offset with the ambient light, so a tile of one primary's stripes and
+    /// black still reads that primary's column.
+    fn slopes(&self) -> Option<[Option<f64>; 3]> {
         if self.n < TILE_MIN_PIXELS {
             return None;
         }
         let count = self.n as f64;
         let mean_p = DVec3::from_array(self.p) / count;
-        let cov = DMat3::from_cols_array_2d(&self.pp) * (1.0 / count) - outer(mean_p, mean_p);
+        let mut cov = DMat3::from_cols_array_2d(&self.pp) * (1.0 / count) - outer(mean_p, mean_p);
         let spread = DVec3::new(cov.x_axis.x, cov.y_axis.y, cov.z_axis.z);
-        if spread.min_element() < TILE_MIN_SPREAD * TILE_MIN_SPREAD {
-            return None;
-        }
-        let scale = DMat3::from_diagonal(DVec3::new(1.0 / spread.x.sqrt(), 1.0 / spread.y.sqrt(), 1.0 / spread.z.sqrt()));
-        if (scale * cov * scale).determinant() < TILE_MIN_INDEPENDENCE {
+        let shown: [bool; 3] = std::array::from_fn(|k| spread[k] >= TILE_MIN_SPREAD * TILE_MIN_SPREAD);
+        if !shown.iter().any(|&s| s) {
             return None;
         }
         let mean_o = self.o / count;
-        let cross = DVec3::from_array(self.po) / count - mean_p * mean_o;
+        let mut cross = DVec3::from_array(self.po) / count - mean_p * mean_o;
+        // The primaries held constant leave the fit: their rows and columns of the
+        // covariance become the identity's, their covariance with the channel 0.
+        for k in (0..3).filter(|&k| !shown[k]) {
+            for m in 0..3 {
+                let v = if m == k { 1.0 } else { 0.0 };
+                cov.col_mut(k)[m] = v;
+                cov.col_mut(m)[k] = v;
+            }
+            cross[k] = 0.0;
+        }
+        let sd = |k: usize| if shown[k] { spread[k].sqrt() } else { 1.0 };
+        let scale = DMat3::from_diagonal(DVec3::new(1.0 / sd(0), 1.0 / sd(1), 1.0 / sd(2)));
+        if (scale * cov * scale).determinant() < TILE_MIN_INDEPENDENCE {
+            return None;
+        }
         let slope = cov.inverse() * cross;
         let variance = self.oo / count - mean_o * mean_o;
-        (slope.dot(cross) >= TILE_MIN_EXPLAINED * variance && slope.is_finite()).then_some(slope)
+        (slope.dot(cross) >= TILE_MIN_EXPLAINED * variance && slope.is_finite()).then(|| std::array::from_fn(|k| shown[k].then_some(slope[k])))
     }
 }
 
@@ -195,13 +212,14 @@ pub fn estimate_crosstalk_from_stripes(
     // Per primary, each usable tile's column (scaled to sum 1) and its weight.
     let mut columns: [Vec<([f64; 3], f64)>; 3] = Default::default();
     for tile_sums in &sums {
-        // slopes[c][k]: camera channel c's slope against primary k.
+        // slopes[c][k]: camera channel c's slope against primary k, where the tile varies k.
         let (Some(r), Some(g), Some(b)) = (tile_sums[0].slopes(), tile_sums[1].slopes(), tile_sums[2].slopes()) else {
             continue;
         };
         let count = tile_sums.iter().map(|c| c.n).min().unwrap_or(0) as f64;
         for (k, columns) in columns.iter_mut().enumerate() {
-            let column = DVec3::new(r[k], g[k], b[k]);
+            let (Some(r), Some(g), Some(b)) = (r[k], g[k], b[k]) else { continue };
+            let column = DVec3::new(r, g, b);
             let sum = column.element_sum();
             if !(sum > 0.0 && sum.is_finite()) || column.min_element() < COLUMN_MIN_ENTRY * sum {
                 continue;
@@ -249,4 +267,38 @@ fn weighted_median(items: &mut [([f64; 3], f64)], key: impl Fn(&([f64; 3], f64))
         }
     }
     items.last().map_or(0.0, key)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A tile whose stripes vary only the red primary's light (a pattern of one
+    /// primary's stripes and black, as some third-party ones are): red's column is read,
+    /// the others are not guessed, and a tile that varies none reads nothing.
+    #[test]
+    fn a_tile_of_one_primary_reads_that_primarys_column() {
+        // Camera channel c sees 0.6, 0.3, 0.1 of the red primary, on a surface
+        // reflecting 0.5 of it, over ambient light of 0.05.
+        let column = [0.6, 0.3, 0.1];
+        let mut sums = [ChannelSums::default(); 3];
+        for i in 0..40 {
+            let red = if i % 3 == 0 { 0.2 } else { 1.0 };
+            let p = [red, 0.35, 0.35];
+            for (c, channel) in sums.iter_mut().enumerate() {
+                channel.add(&p, 0.5 * column[c] * red + 0.05 + 0.1 * (c as f64) * 0.35);
+            }
+        }
+        for (c, channel) in sums.iter().enumerate() {
+            let slopes = channel.slopes().expect("a tile of red stripes gave no fit");
+            let red = slopes[0].expect("no slope against red");
+            assert!((red - 0.5 * column[c]).abs() < 1e-9, "channel {c}: {red}");
+            assert_eq!((slopes[1], slopes[2]), (None, None), "channel {c}");
+        }
+        let mut flat = ChannelSums::default();
+        for _ in 0..40 {
+            flat.add(&[1.0, 0.35, 0.35], 0.4);
+        }
+        assert_eq!(flat.slopes(), None);
+    }
 }
