@@ -141,7 +141,9 @@ pub struct Decoder {
     increasing: bool,
     /// The codes some boundary of the pattern shows, as seen along the scan direction.
     used_codes: CodeMask,
-    /// The refined positions of every line's edges, in order (flat: line after line).
+    /// The positions of every line's edges, in order (flat: line after line), as
+    /// segmentation placed them and as [`Decoder::smooth_positions`] refined them.
+    placed: Vec<f32>,
     smoothed: Vec<f32>,
     /// Where each line's edges start in the flat order, and one past the last line.
     line_start: Vec<usize>,
@@ -320,6 +322,7 @@ impl Decoder {
             colors,
             increasing,
             used_codes,
+            placed: Vec::new(),
             smoothed: Vec::new(),
             line_start: Vec::new(),
             aligners: vec![RunAligner { aligner, masks: Vec::new(), positions: Vec::new(), ranks: Vec::new() }; LINE_CHUNKS],
@@ -694,14 +697,12 @@ impl Decoder {
             link_lines(&lines[l - 1], &lines[l], b, &mut self.down[a..b]);
             link_lines(&lines[l], &lines[l - 1], a, &mut self.up[b..self.line_start[l + 1]]);
         }
+        self.placed.clear();
+        self.placed.extend(lines.iter().flatten().map(|e| e.pos));
         let out = &mut self.smoothed;
         out.clear();
-        let mut flat = 0;
-        for (l, edges) in lines.iter().enumerate() {
-            for e in edges {
-                out.push(if e.id < 0 { e.pos } else { fit_along_chain(lines, &self.line_start, &self.up, &self.down, l, flat, e.pos) });
-                flat += 1;
-            }
+        for (flat, e) in lines.iter().flatten().enumerate() {
+            out.push(if e.id < 0 { e.pos } else { fit_along_chain(&self.placed, &self.up, &self.down, flat) });
         }
         let mut flat = 0;
         for edges in seg.lines.iter_mut() {
@@ -1794,13 +1795,13 @@ fn link_lines(from: &[Edge], to: &[Edge], to_start: usize, links: &mut [u32]) {
     }
 }
 
-/// The position on its own line `l` of the straight line fitted through the edge at
-/// flat index `flat` (at `pos`) and its boundary's positions on up to [`SMOOTH_LINES`] lines
-/// either side (or [`SMOOTH_LINES_LONG`], where that fit agrees), followed through the
-/// `up` and `down` links (see [`Decoder::smooth_positions`]); `pos` when a side has none.
-fn fit_along_chain(lines: &[Vec<Edge>], line_start: &[usize], up: &[u32], down: &[u32], l: usize, flat: usize, pos: f32) -> f32 {
-    // The position of the edge at flat index `i` of line `m`.
-    let at = |m: usize, i: usize| lines[m][i - line_start[m]].pos;
+/// The position on its own line of the straight line fitted through the edge at flat
+/// index `flat` and its boundary's positions on up to [`SMOOTH_LINES`] lines either side
+/// (or [`SMOOTH_LINES_LONG`], where that fit agrees), followed through the `up` and
+/// `down` links (see [`Decoder::smooth_positions`]; `placed` holds every edge's
+/// position by flat index); its own position when a side has none.
+fn fit_along_chain(placed: &[f32], up: &[u32], down: &[u32], flat: usize) -> f32 {
+    let pos = placed[flat];
     // The samples: (line offset d, position p), the edge's own first.
     let mut samples = [(0f32, 0f32); 2 * SMOOTH_LINES_LONG + 1];
     samples[0] = (0.0, pos);
@@ -1814,8 +1815,7 @@ fn fit_along_chain(lines: &[Vec<Edge>], line_start: &[usize], up: &[u32], down: 
                 break;
             }
             i = next as usize;
-            let m = if sign < 0.0 { l - dl } else { l + dl };
-            samples[n] = (sign * dl as f32, at(m, i));
+            samples[n] = (sign * dl as f32, placed[i]);
             n += 1;
             sides[side] = true;
         }
