@@ -142,8 +142,9 @@ pub struct Decoder {
     /// The codes some boundary of the pattern shows, as seen along the scan direction.
     used_codes: CodeMask,
     /// The positions of every line's edges, in order (flat: line after line), as
-    /// segmentation placed them and as [`Decoder::smooth_positions`] refined them.
+    /// segmentation placed them (what [`Decoder::smooth_positions`] fits) ...
     placed: Vec<f32>,
+    /// ... and as it refined them.
     smoothed: Vec<f32>,
     /// Where each line's edges start in the flat order, and one past the last line.
     line_start: Vec<usize>,
@@ -657,7 +658,7 @@ impl Decoder {
     /// Why: a boundary's sub-pixel position comes from three samples of one line's
     /// gradient, and the camera's noise, JPEG's blocks and interpolated 4:2:0 chroma
     /// move it by a few tenths of a pixel, independently enough from line to line that
-    /// a fit over five lines takes most of that out, while a straight line through
+    /// a fit over seven lines (or fifteen) takes most of that out, while a straight line through
     /// them keeps slanted and gently curved stripes where they are.
     ///
     /// Then each identified boundary whose two neighbours on either side along the line
