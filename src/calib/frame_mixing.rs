@@ -69,6 +69,18 @@ const TILE_MIN_EXPLAINED: f64 = 0.8;
 const COLUMN_MIN_ENTRY: f64 = -0.1;
 
 /// Least tiles that must give each column.
+///
+/// Under 25-pixel stripes (`eval --hard`'s `wide` rows) crumpled paper, the textured
+/// scene and paper in 1 % dyes give 9, 3 and 1 tiles and no estimate: a tile of a few
+/// stripes of the default pattern often shows its primaries moving together (its
+/// sequence pairs each colour with its complement, grey with white), and a larger tile
+/// holds more than one surface colour. Tried on 2026-12-08 and not kept: tiles
+/// overlapping by half, four times as many, gave estimates there, but 0.06 (paper)
+/// and 0.13 (textured) off the card's matrix, where the rows with an estimate are
+/// within 0.08; and columns read from pairs of neighbouring stripes whose colours
+/// differ in one primary alone (no tile fit, the surface the same on both sides)
+/// found none, since every boundary of the default pattern changes two or three
+/// channels.
 const MIN_TILES: usize = 16;
 
 /// What [`estimate_crosstalk_from_stripes`] found.
